@@ -1,0 +1,106 @@
+"""The ``spherejam`` command line.
+
+Each subcommand lives in its own module under :mod:`spherejam.cli` and exposes ``register(subparsers)``; heavy
+modules (numba engines) are imported only when their command runs, so ``spherejam --help`` stays fast.
+Errors a user can cause print one line ``spherejam <cmd>: error: ...`` and exit with status 2 (bad input) or 1
+(a check failed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from .. import __version__
+from ..errors import InputError, PackingFileError, SpherejamError
+
+#: Modules providing subcommands, in the order they appear in ``--help``.
+COMMAND_MODULES = ("packing_commands",)
+
+EXIT_BAD_INPUT = 2
+EXIT_FAILED = 1
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse that reports bad arguments in one line (no usage dump) with exit status 2."""
+
+    def error(self, message: str):
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = OneLineParser(prog="spherejam", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"spherejam {__version__}")
+    parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
+    sub.required = True
+    for name in COMMAND_MODULES:
+        importlib.import_module(f"{__name__}.{name}").register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s", stream=sys.stderr
+    )
+    try:
+        return int(args.func(args) or 0)
+    except (InputError, PackingFileError) as exc:
+        sys.stderr.write(f"spherejam {args.command}: error: {exc}\n")
+        return EXIT_BAD_INPUT
+    except SpherejamError as exc:
+        sys.stderr.write(f"spherejam {args.command}: error: {exc}\n")
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        sys.stderr.write(f"spherejam {args.command}: interrupted\n")
+        return 130
+
+
+# helpers shared by the command modules --------------------------------------------------------------------------
+
+
+def int_at_least(minimum: int):
+    """An argparse type: an integer >= ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{text!r} must be >= {minimum}")
+        return value
+
+    return parse
+
+
+positive_int = int_at_least(1)
+
+
+def finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if value != value or value in (float("inf"), float("-inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
+    return value
+
+
+def seed_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
+    return value
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

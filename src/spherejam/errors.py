@@ -1,0 +1,36 @@
+"""Exceptions raised by spherejam.
+
+Every error a user can cause (bad argument, bad config, bad file) is a ``SpherejamError``; the CLI turns it into
+a one-line message and a non-zero exit code instead of a traceback.
+"""
+
+from __future__ import annotations
+
+
+class SpherejamError(Exception):
+    """Base class of all errors spherejam reports to users."""
+
+
+class InputError(SpherejamError, ValueError):
+    """A parameter, argument or config value is invalid."""
+
+
+class PackingFileError(SpherejamError, OSError):
+    """A packing, checkpoint or dataset file is missing, malformed or fails validation."""
+
+
+class OverlapError(SpherejamError):
+    """A packing has overlapping spheres beyond the tolerance (it must never become a result)."""
+
+
+class SimulationError(SpherejamError, RuntimeError):
+    """An engine detected an internal inconsistency (lost event, NaN, failed solve)."""
+
+
+def require(condition: bool, field: str, value, rule: str) -> None:
+    """Raise :class:`InputError` naming ``field`` and ``value`` unless ``condition`` holds.
+
+    ``rule`` says what the value must be, e.g. ``"must be > 0"``.
+    """
+    if not condition:
+        raise InputError(f"{field}={value!r}: {rule}")

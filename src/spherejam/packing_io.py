@@ -1,0 +1,202 @@
+"""One HDF5 file per packing, written atomically and validated on read; export to extended XYZ.
+
+Layout of a packing file::
+
+    /positions   (N, d) float64, in [0, L)
+    /diameters   (N,)   float64, actual diameters
+    /history/*   optional per-window (or per-iteration) columns of the run that made it
+    attrs: format, box, dim, n, phi, algorithm, seed, reduced_pressure, parameters (JSON), counters (JSON),
+           metadata (JSON, everything else), spherejam_version, git_commit, created, package_versions (JSON)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from .atomic import atomic_output
+from .errors import OverlapError, PackingFileError
+from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from .provenance import provenance
+
+FORMAT = "spherejam-packing-1"
+_SCALAR_KEYS = ("algorithm", "seed", "reduced_pressure")
+_JSON_KEYS = ("parameters", "counters")
+
+
+def _h5py():
+    import h5py  # deferred: keeps `spherejam --help` fast
+
+    return h5py
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def dumps(obj) -> str:
+    return json.dumps(obj, default=_json_default, sort_keys=True)
+
+
+def write_packing(
+    path: str | os.PathLike,
+    packing: Packing,
+    history: Mapping[str, np.ndarray] | None = None,
+    tolerance: float = DEFAULT_OVERLAP_TOLERANCE,
+) -> Path:
+    """Validate ``packing`` and write it (plus an optional run history) atomically to ``path``.
+
+    Raises :class:`OverlapError` (and writes nothing) if the packing overlaps beyond ``tolerance``.
+    """
+    path = Path(path)
+    packing.validate(tolerance, what=f"refusing to write {path}")
+    h5py = _h5py()
+    meta = dict(packing.metadata)
+    with atomic_output(path, ".h5") as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.create_dataset("positions", data=packing.positions)
+            f.create_dataset("diameters", data=packing.diameters)
+            a = f.attrs
+            a["format"] = FORMAT
+            a["box"] = packing.box
+            a["dim"] = packing.dim
+            a["n"] = packing.n
+            a["phi"] = packing.phi
+            for key in _SCALAR_KEYS:
+                value = meta.pop(key, None)
+                if value is not None:
+                    a[key] = value
+            for key in _JSON_KEYS:
+                a[key] = dumps(meta.pop(key, {}))
+            a["metadata"] = dumps(meta)
+            prov = provenance()
+            a["spherejam_version"] = prov["spherejam_version"]
+            a["git_commit"] = prov["git_commit"]
+            a["created"] = prov["created"]
+            a["package_versions"] = dumps(prov["package_versions"])
+            if history:
+                g = f.create_group("history")
+                for name, column in history.items():
+                    g.create_dataset(name, data=np.asarray(column))
+    return path
+
+
+def _fail(path, problem: str):
+    raise PackingFileError(f"{path}: {problem}")
+
+
+def _read_attrs(path, f) -> dict[str, Any]:
+    a = f.attrs
+    if a.get("format") != FORMAT:
+        _fail(path, f"not a spherejam packing file (format attribute is {a.get('format')!r}, expected {FORMAT!r})")
+    meta: dict[str, Any] = {}
+    try:
+        meta.update(json.loads(a.get("metadata", "{}")))
+        for key in _JSON_KEYS:
+            meta[key] = json.loads(a.get(key, "{}"))
+        meta["provenance"] = {
+            "spherejam_version": str(a.get("spherejam_version", "")),
+            "git_commit": str(a.get("git_commit", "")),
+            "created": str(a.get("created", "")),
+            "package_versions": json.loads(a.get("package_versions", "{}")),
+        }
+    except (json.JSONDecodeError, TypeError) as exc:
+        _fail(path, f"corrupt JSON attribute ({exc})")
+    for key in _SCALAR_KEYS:
+        if key in a:
+            value = a[key]
+            meta[key] = value.item() if isinstance(value, np.generic) else value
+    return meta
+
+
+def read_packing(
+    path: str | os.PathLike,
+    tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE,
+    with_history: bool = False,
+):
+    """Read and validate a packing file.
+
+    Checks the format tag, shapes, dtypes, finiteness, that centres lie in [0, L), and (unless ``tolerance`` is
+    None) that no pair overlaps beyond ``tolerance``. Any problem raises :class:`PackingFileError` naming the file.
+    Returns the packing, or ``(packing, history)`` if ``with_history``.
+    """
+    path = Path(path)
+    if not path.exists():
+        _fail(path, "no such file")
+    if path.is_dir():
+        _fail(path, "is a directory, not a packing file")
+    h5py = _h5py()
+    try:
+        with h5py.File(path, "r") as f:
+            meta = _read_attrs(path, f)
+            for name in ("positions", "diameters"):
+                if name not in f or not isinstance(f[name], h5py.Dataset):
+                    _fail(path, f"missing dataset '{name}'")
+            pos_ds, dia_ds = f["positions"], f["diameters"]
+            if pos_ds.dtype != np.float64 or dia_ds.dtype != np.float64:
+                _fail(path, f"datasets must be float64 (positions {pos_ds.dtype}, diameters {dia_ds.dtype})")
+            positions = pos_ds[()]
+            diameters = dia_ds[()]
+            box = float(f.attrs.get("box", math.nan))
+            history = None
+            if with_history and "history" in f:
+                history = {k: v[()] for k, v in f["history"].items()}
+    except PackingFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        # h5py reports truncated or non-HDF5 files as OSError with internal detail; keep the first line only.
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        _fail(path, f"not a readable HDF5 packing file ({reason})")
+    if positions.ndim != 2 or not 2 <= positions.shape[1] <= 5:
+        _fail(path, f"positions have shape {positions.shape}, expected (N, d) with 2 <= d <= 5")
+    if diameters.shape != (positions.shape[0],):
+        _fail(path, f"diameters have shape {diameters.shape}, expected ({positions.shape[0]},)")
+    if positions.shape[0] < 2:
+        _fail(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
+    if not (math.isfinite(box) and box > 0):
+        _fail(path, f"box attribute is {box!r}, expected a finite number > 0")
+    if not np.all(np.isfinite(positions)):
+        _fail(path, "positions contain NaN or infinity")
+    if not (np.all(np.isfinite(diameters)) and np.all(diameters > 0)):
+        _fail(path, "diameters must be finite and > 0")
+    if np.any(positions < 0) or np.any(positions >= box):
+        _fail(path, f"positions lie outside the box [0, {box})")
+    packing = Packing(positions, diameters, box, meta)
+    if tolerance is not None:
+        try:
+            packing.validate(tolerance, what=str(path))
+        except OverlapError as exc:
+            raise PackingFileError(str(exc)) from None
+    return (packing, history or {}) if with_history else packing
+
+
+def export_xyz(packing: Packing, path: str | os.PathLike) -> Path:
+    """Write extended XYZ (OVITO, ASE): species, position and per-particle ``radius``; d = 2 gets z = 0."""
+    if packing.dim not in (2, 3):
+        raise PackingFileError(f"{path}: extended XYZ holds 2D or 3D packings, this one has d={packing.dim}")
+    pos = packing.positions
+    if packing.dim == 2:
+        pos = np.column_stack([pos, np.zeros(packing.n)])
+    L = packing.box
+    pbc = '"T T T"' if packing.dim == 3 else '"T T F"'
+    alg = str(packing.metadata.get("algorithm", "unknown"))
+    header = (
+        f'Lattice="{L!r} 0.0 0.0 0.0 {L!r} 0.0 0.0 0.0 {L!r}" Origin="0.0 0.0 0.0" '
+        f"Properties=species:S:1:pos:R:3:radius:R:1 pbc={pbc} phi={packing.phi!r} algorithm={alg}"
+    )
+    radius = packing.diameters / 2.0
+    lines = [str(packing.n), header]
+    lines += [f"S {x!r} {y!r} {z!r} {r!r}" for (x, y, z), r in zip(pos.tolist(), radius.tolist())]
+    path = Path(path)
+    with atomic_output(path, ".xyz") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    return path
