@@ -1,0 +1,55 @@
+# Config validation, the experiment design and the path patterns every rule file uses.
+import json
+
+from snakemake.utils import validate
+
+from spherejam import cluster_resources
+from spherejam.experiment import Experiment, config_hash, fmt, parse_run
+
+validate(config, workflow.source_path("../config/schema.yaml"))
+
+EXP = Experiment(config)
+R = str(EXP.results)
+
+wildcard_constraints:
+    protocol="ls|fb",
+    sigma=r"[0-9][0-9.e+-]*",
+    rate=r"[0-9][0-9.e+-]*",
+    replica=r"\d+",
+    factor=r"[0-9][0-9.e+-]*",
+    g0=r"[0-9][0-9.e+-]*",
+    gf=r"[0-9][0-9.e+-]*",
+
+RUN = "{protocol}/sigma{sigma}/rate{rate}/r{replica}"
+PACKING = f"{R}/packings/{RUN}"
+GRID_RUN = "ls/sigma{sigma}/rate{rate}/r{replica}/f{factor}_g{g0}_gf{gf}"
+
+DATASET = f"{R}/dataset.nc"
+TABLE_NAMES = ["table2", "table3", "table4"]
+TABLES = expand(f"{R}/tables/{{name}}.{{ext}}", name=TABLE_NAMES, ext=["csv", "md", "tex"])
+FIGURE_NAMES = ["fig2", "fig3", "fig4", "fig5", "fig7", "structure", "forces"]
+FIGURES = expand(f"{R}/figures/{{name}}.{{ext}}", name=FIGURE_NAMES, ext=["png", "pdf"])
+
+
+def run_of(wildcards):
+    return parse_run(wildcards.protocol, wildcards.sigma, wildcards.rate, wildcards.replica)
+
+
+def run_seed(purpose):
+    return lambda wildcards: run_of(wildcards).seed(EXP.master_seed, purpose)
+
+
+def resources_for(stage, **fixed):
+    """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.cluster_resources)."""
+
+    def runtime(wildcards, attempt):
+        return cluster_resources.runtime_minutes(stage, n=EXP.n, rate=_rate(wildcards), attempt=attempt, **fixed)
+
+    def mem_mb(wildcards, attempt):
+        return cluster_resources.mem_mb(stage, n=EXP.n, attempt=attempt)
+
+    return {"runtime": runtime, "mem_mb": mem_mb, "cpus_per_task": 1}
+
+
+def _rate(wildcards):
+    return float(wildcards.rate) if hasattr(wildcards, "rate") else None

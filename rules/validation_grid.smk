@@ -1,0 +1,26 @@
+# The paper's parameter-validation grid (Section IV.B, Fig. 3): MLS with every (decrease factor, initial rate,
+# final rate) on selected LS packings at sigma = 0 and 0.3.
+
+
+rule jam_validation_grid:
+    input:
+        f"{R}/packings/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}/initial.h5",
+    output:
+        f"{R}/validation/{GRID_RUN}.h5",
+    params:
+        seed=lambda w: parse_run("ls", w.sigma, w.rate, w.replica).seed(
+            EXP.master_seed, f"grid-{w.factor}-{w.g0}-{w.gf}"
+        ),
+        checkpoint=f"{R}/checkpoints/validation/{GRID_RUN}.h5",
+        p_max=MLS["p_max"],
+        max_eq=MLS["max_equilibration_windows"],
+    log:
+        f"{R}/logs/validation/{GRID_RUN}.log",
+    benchmark:
+        f"{R}/benchmarks/validation/{GRID_RUN}.tsv"
+    resources:
+        **resources_for("mls", final_rate=1e-5),
+    shell:
+        "spherejam mls {input} --initial-rate {wildcards.g0} --decrease-factor {wildcards.factor}"
+        " --final-rate {wildcards.gf} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"
+        " --seed {params.seed} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"

@@ -1,0 +1,134 @@
+"""``spherejam dataset | tables | figure | browse``: the results database and what is derived from it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import finite_float
+
+
+def register(sub) -> None:
+    p = sub.add_parser("dataset", help="assemble results/dataset.nc from an experiment manifest")
+    p.add_argument("manifest", type=Path, help="experiment.json written by the workflow")
+    p.add_argument("-o", "--output", type=Path, required=True, help="output netCDF file")
+    p.set_defaults(func=_dataset)
+
+    p = sub.add_parser("tables", help="write Tables 2-4 (CSV, Markdown, LaTeX) from a dataset")
+    p.add_argument("dataset", type=Path)
+    p.add_argument("--outdir", type=Path, required=True)
+    p.set_defaults(func=_tables)
+
+    p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
+    p.add_argument("name", help="fig2, fig3, fig4, fig5, fig7, structure or forces")
+    p.add_argument("dataset", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help="output stem (writes STEM.png and STEM.pdf)")
+    p.set_defaults(func=_figure)
+
+    p = sub.add_parser("browse", help="summarise, filter and export an archived results dataset")
+    p.add_argument("dataset", type=Path)
+    p.add_argument("--protocol", choices=("ls", "fb"), help="only this protocol")
+    p.add_argument("--sigma", type=finite_float, action="append", help="only this sigma (repeatable)")
+    p.add_argument("--rate-min", type=finite_float, help="only gamma >= this")
+    p.add_argument("--rate-max", type=finite_float, help="only gamma <= this")
+    p.add_argument("--columns", help="comma-separated variables to show (default: a standard set)")
+    p.add_argument("--grid", action="store_true", help="show the validation-grid runs instead")
+    p.add_argument("--csv", type=Path, help="export the selection as CSV")
+    p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
+    p.add_argument("-o", "--output", type=Path, help="figure output stem (default: ./<figure>)")
+    p.add_argument("--tables", action="store_true", help="print Tables 2-4")
+    p.set_defaults(func=_browse)
+
+
+def _dataset(args) -> int:
+    from ..dataset import build_dataset, write_dataset
+
+    ds = build_dataset(args.manifest)
+    write_dataset(ds, args.output)
+    print(f"{args.output}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
+          f"{len(ds.data_vars)} variables")
+    return 0
+
+
+def _tables(args) -> int:
+    from ..dataset import open_dataset
+    from ..tables import write_tables
+
+    for path in write_tables(open_dataset(args.dataset), args.outdir):
+        print(path)
+    return 0
+
+
+def _figure(args) -> int:
+    from ..dataset import open_dataset
+    from ..figures import draw, save_figure
+
+    ds = open_dataset(args.dataset)
+    for path in save_figure(draw(args.name, ds), args.output):
+        print(path)
+    return 0
+
+
+DEFAULT_COLUMNS = ("phi", "phi_J", "pressure_J", "mls_collisions", "mls_wall_time", "z_nonrattler",
+                   "calippso_delta_phi", "calippso_is_isostatic")
+GRID_COLUMNS = ("grid_phi", "grid_phi_J", "grid_collisions", "grid_stages", "grid_wall_time")
+
+
+def _browse(args) -> int:
+    import json
+
+    import numpy as np
+    import pandas as pd
+
+    from ..dataset import open_dataset
+    from ..errors import InputError
+
+    ds = open_dataset(args.dataset)
+    cfg = json.loads(ds.attrs["config"])
+    print(f"{args.dataset}: {ds.attrs.get('title', '')}")
+    print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}, {ds.sizes['packing']} packings, "
+          f"{ds.sizes.get('grid_run', 0)} validation-grid runs")
+    print(f"  config hash {ds.attrs.get('config_hash')}, git {ds.attrs.get('git_commit')}, created {ds.attrs.get('created')}")
+    dim = "grid_run" if args.grid else "packing"
+    if args.grid and "grid_run" not in ds.dims:
+        raise InputError("--grid: this dataset has no validation-grid runs")
+    sub = ds[[v for v in ds.data_vars if dim in ds[v].dims]]
+    sig, rate = ("grid_sigma", "grid_rate") if args.grid else ("sigma", "rate")
+    mask = np.ones(ds.sizes[dim], dtype=bool)
+    if args.protocol and not args.grid:
+        mask &= ds.protocol.values == args.protocol
+    if args.sigma:
+        mask &= np.isin(np.round(ds[sig].values, 12), np.round(args.sigma, 12))
+    if args.rate_min is not None:
+        mask &= ds[rate].values >= args.rate_min
+    if args.rate_max is not None:
+        mask &= ds[rate].values <= args.rate_max
+    sub = sub.isel({dim: np.flatnonzero(mask)})
+    df = sub.to_dataframe().reset_index(drop=True)
+    coords = [c for c in sub.coords if c not in ("key",)]
+    if args.columns:
+        wanted = [c.strip() for c in args.columns.split(",") if c.strip()]
+        missing = [c for c in wanted if c not in df.columns]
+        if missing:
+            raise InputError(f"--columns: unknown variable(s) {', '.join(missing)}; have {', '.join(sub.data_vars)}")
+    else:
+        wanted = [c for c in (GRID_COLUMNS if args.grid else DEFAULT_COLUMNS) if c in df.columns]
+    shown = df[[c for c in coords if c in df.columns] + wanted]
+    with pd.option_context("display.max_rows", 60, "display.width", 160, "display.float_format", "{:.6g}".format):
+        print(shown.to_string(index=False) if len(shown) else "  (no runs match the filter)")
+    if args.csv:
+        from ..atomic import atomic_output
+
+        with atomic_output(args.csv, ".csv") as tmp:
+            df.to_csv(tmp, index=False)
+        print(f"wrote {len(df)} rows to {args.csv}")
+    if args.tables:
+        from ..tables import compute_tables, formatted
+
+        for name, t in compute_tables(ds).items():
+            print(f"\n{name}\n{formatted(name, t).to_string()}")
+    if args.figure:
+        from ..figures import draw, save_figure
+
+        for path in save_figure(draw(args.figure, ds), args.output or Path(args.figure)):
+            print(path)
+    return 0

@@ -1,0 +1,287 @@
+"""Contacts, rattlers, coordination number and isostaticity of a (nearly) jammed packing, in any dimension d.
+
+A hard-sphere packing at finite reduced pressure p = PV/(N k_B T) has no exact contacts: a pair that is "in contact"
+carries a small gap h_ij = r_ij / D_ij - 1 (relative to the contact distance D_ij = (D_i + D_j)/2 of the ACTUAL
+diameters). Contacts are therefore the pairs with h_ij < g for a gap tolerance g that must fit the pressure.
+
+**Tolerance rule** (:func:`choose_tolerance`). Near jamming the free-volume gap of a load-bearing contact is of order
+1/p (a contact carrying force f has gap ~ <f>/(f p)), while the gaps of the closest non-contacts grow like
+h^0.6 from 0 (Donev, Torquato & Stillinger, PRE 71, 011105 (2005)): the number of pairs with gap < g,
+N(g), has a plateau between the two populations. We scan g on a log grid (4 points per decade) from 10/p up to
+1e-3 and pick the grid point where N(g) is flattest, i.e. where the fewest gaps fall within half a decade either
+side; ties go to the centre of the flattest stretch. At p = 1e12 this lands around 1e-9 ... 1e-7, consistent with
+the reference code's 1e-7 (spec §6.1). Without a pressure the scan starts at 1e-12. :func:`tolerance_scan` gives
+the coordination over the whole grid, to show the plateau.
+
+**Rattlers** (:func:`rattler_mask`): a particle with fewer than ``min_contacts`` (default d + 1) contacts with
+non-rattlers is a rattler, recursively. The fixed point is the k-core of the contact graph, k = d + 1, computed by
+peeling in O(N + K).
+
+**Isostaticity** (paper, Appendix E): the N' non-rattlers of a jammed periodic packing need at least
+K_0 = d(N' - 1) + 1 contacts among themselves; a random jammed packing has exactly K_0, so Z = 2K'/N' -> 2d.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numba import njit
+
+from . import neighbours
+from .errors import InputError, require
+from .packing import Packing
+
+#: Largest gap examined by the tolerance scan (relative to D_ij).
+MAX_SCAN_GAP = 1e-3
+#: Smallest gap examined when the pressure is unknown (below this, float64 positions in a box of ~20 diameters
+#: cannot resolve a gap reliably).
+MIN_SCAN_GAP = 1e-12
+#: Grid density of the tolerance scan (points per decade).
+SCAN_POINTS_PER_DECADE = 4
+
+
+def packing_pressure(packing: Packing, pressure: float | None = None) -> float | None:
+    """The reduced pressure p to use: ``pressure`` if given, else ``metadata["reduced_pressure"]`` if finite > 0."""
+    if pressure is None:
+        pressure = packing.metadata.get("reduced_pressure")
+        if pressure is None:
+            return None
+        try:
+            pressure = float(pressure)
+        except (TypeError, ValueError):
+            return None
+        return pressure if math.isfinite(pressure) and pressure > 0 else None
+    pressure = float(pressure)
+    require(math.isfinite(pressure) and pressure > 0, "pressure", pressure, "must be a finite number > 0")
+    return pressure
+
+
+def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """All pairs i < j with relative gap h_ij = r_ij/D_ij - 1 < ``max_gap`` (overlaps give h < 0).
+
+    Returns ``(i, j, h)`` sorted by (i, j).
+    """
+    require(math.isfinite(max_gap) and max_gap > -1, "max_gap", max_gap, "must be a finite number > -1")
+    i, j, r = packing.pairs_within(1.0 + max_gap)
+    dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
+    return i, j, r / dij - 1.0
+
+
+def contact_pairs(packing: Packing, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Contacts: pairs with gap h_ij < ``tolerance`` (relative to D_ij). Returns ``(i, j, h)``."""
+    _check_tolerance(tolerance)
+    return near_pairs(packing, tolerance)
+
+
+def _check_tolerance(tolerance) -> None:
+    require(
+        isinstance(tolerance, (int, float, np.floating)) and math.isfinite(tolerance) and 0 < tolerance < 1,
+        "contact_tolerance", tolerance, "must be a number with 0 < tolerance < 1 (relative gap)",
+    )
+
+
+def scan_grid(pressure: float | None) -> np.ndarray:
+    """The log grid of tolerances scanned by :func:`choose_tolerance`: from 10/p (or 1e-12) to 1e-3."""
+    lo = MIN_SCAN_GAP if pressure is None else 10.0 / pressure
+    lo = min(max(lo, MIN_SCAN_GAP), MAX_SCAN_GAP / 10.0)  # an unjammed packing (p < 1e4) still gets a decade
+    decades = math.log10(MAX_SCAN_GAP / lo)
+    return np.logspace(math.log10(lo), math.log10(MAX_SCAN_GAP), int(round(decades * SCAN_POINTS_PER_DECADE)) + 1)
+
+
+def choose_tolerance(gaps: np.ndarray, pressure: float | None = None) -> float:
+    """The contact tolerance g where N(g) = #{pairs with gap < g} is flattest (module docstring).
+
+    ``gaps`` are the relative gaps h_ij of (at least) all pairs with h_ij < 1e-3 * sqrt(10).
+    """
+    grid = scan_grid(pressure)
+    h = np.sort(np.asarray(gaps, dtype=np.float64))
+    half = 10.0**0.5
+    density = np.searchsorted(h, grid * half) - np.searchsorted(h, grid / half)
+    flattest = density == density.min()
+    # centre of the longest run of minimal density (on the log grid)
+    best_len, best_mid, k = 0, 0, 0
+    while k < len(grid):
+        if flattest[k]:
+            start = k
+            while k < len(grid) and flattest[k]:
+                k += 1
+            if k - start > best_len:
+                best_len, best_mid = k - start, (start + k - 1) / 2.0
+        else:
+            k += 1
+    lo, hi = math.floor(best_mid), math.ceil(best_mid)
+    return float(math.sqrt(grid[lo] * grid[hi]))
+
+
+# --- rattlers ------------------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def k_core(n, pair_i, pair_j, k):
+    """Membership of the k-core of the graph with n nodes and edges (pair_i, pair_j): True = in the core.
+
+    Peels nodes of degree < k one at a time, updating the degrees of their neighbours (Batagelj-Zaversnik style),
+    which gives the same fixed point as the recursive "fewer than k contacts with non-rattlers" rule.
+    """
+    m = pair_i.shape[0]
+    degree = np.zeros(n, dtype=np.int64)
+    for e in range(m):
+        degree[pair_i[e]] += 1
+        degree[pair_j[e]] += 1
+    start = np.zeros(n + 1, dtype=np.int64)
+    for v in range(n):
+        start[v + 1] = start[v] + degree[v]
+    fill = start[:-1].copy()
+    adj = np.empty(2 * m, dtype=np.int64)
+    for e in range(m):
+        a, b = pair_i[e], pair_j[e]
+        adj[fill[a]] = b
+        fill[a] += 1
+        adj[fill[b]] = a
+        fill[b] += 1
+    alive = np.ones(n, dtype=np.bool_)
+    stack = np.empty(n, dtype=np.int64)
+    top = 0
+    for v in range(n):
+        if degree[v] < k:
+            alive[v] = False
+            stack[top] = v
+            top += 1
+    while top > 0:
+        top -= 1
+        v = stack[top]
+        for idx in range(start[v], start[v + 1]):
+            u = adj[idx]
+            if alive[u]:
+                degree[u] -= 1
+                if degree[u] < k:
+                    alive[u] = False
+                    stack[top] = u
+                    top += 1
+    return alive
+
+
+def rattler_mask(n: int, pair_i: np.ndarray, pair_j: np.ndarray, min_contacts: int) -> np.ndarray:
+    """True for rattlers: particles outside the ``min_contacts``-core of the contact graph."""
+    require(int(min_contacts) == min_contacts and min_contacts >= 1, "min_contacts", min_contacts,
+            "must be an integer >= 1")
+    pair_i = np.ascontiguousarray(pair_i, dtype=np.int64)
+    pair_j = np.ascontiguousarray(pair_j, dtype=np.int64)
+    return ~k_core(int(n), pair_i, pair_j, int(min_contacts))
+
+
+# --- coordination ----------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Coordination:
+    """Contact statistics at one tolerance (all counts are of unordered pairs)."""
+
+    contact_tolerance: float  #: gap tolerance g (relative to D_ij)
+    n_contacts: int  #: K, contacts among all particles
+    z_mean: float  #: 2K/N
+    n_nonrattlers: int  #: N'
+    n_contacts_nonrattler: int  #: K', contacts among non-rattlers
+    z_nonrattler: float  #: 2K'/N' (NaN if N' = 0)
+    rattler_fraction: float  #: 1 - N'/N
+    isostatic_contacts: int  #: K_0 = d(N'-1) + 1 (0 if N' = 0)
+    isostatic_excess: int  #: K' - K_0
+    is_isostatic: int  #: 1 if K' == K_0 and N' > 0, else 0
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+def _coordination(n, dim, tolerance, pair_i, pair_j, rattler) -> Coordination:
+    keep = ~(rattler[pair_i] | rattler[pair_j])
+    n_nr = int(n - np.count_nonzero(rattler))
+    k_nr = int(np.count_nonzero(keep))
+    k0 = dim * (n_nr - 1) + 1 if n_nr > 0 else 0
+    return Coordination(
+        contact_tolerance=float(tolerance),
+        n_contacts=int(len(pair_i)),
+        z_mean=2.0 * len(pair_i) / n,
+        n_nonrattlers=n_nr,
+        n_contacts_nonrattler=k_nr,
+        z_nonrattler=2.0 * k_nr / n_nr if n_nr else math.nan,
+        rattler_fraction=1.0 - n_nr / n,
+        isostatic_contacts=k0,
+        isostatic_excess=k_nr - k0,
+        is_isostatic=int(n_nr > 0 and k_nr == k0),
+    )
+
+
+@dataclass(frozen=True)
+class ContactAnalysis:
+    """Contacts of a packing at the chosen tolerance, with the arrays figures need."""
+
+    coordination: Coordination
+    pair_i: np.ndarray  #: first particle of each contact (i < j)
+    pair_j: np.ndarray  #: second particle
+    gap: np.ndarray  #: relative gap h_ij of each contact
+    rattler: np.ndarray  #: (N,) bool, True for rattlers
+    contacts_per_particle: np.ndarray  #: (N,) int, contacts of each particle (all partners)
+    pressure: float | None  #: reduced pressure used by the tolerance rule (None if unknown)
+
+
+def analyze_contacts(
+    packing: Packing,
+    *,
+    contact_tolerance: float | None = None,
+    pressure: float | None = None,
+    min_contacts: int | None = None,
+) -> ContactAnalysis:
+    """Contacts, rattlers and coordination of ``packing`` (ACTUAL diameters).
+
+    ``contact_tolerance`` None -> :func:`choose_tolerance` with ``pressure`` (default: the packing's
+    ``metadata["reduced_pressure"]``). ``min_contacts`` defaults to d + 1.
+    """
+    p = packing_pressure(packing, pressure)
+    k = packing.dim + 1 if min_contacts is None else min_contacts
+    if contact_tolerance is None:
+        i, j, h = near_pairs(packing, MAX_SCAN_GAP * 10.0**0.5)
+        tol = choose_tolerance(h, p)
+        keep = h < tol
+        i, j, h = i[keep], j[keep], h[keep]
+    else:
+        _check_tolerance(contact_tolerance)
+        tol = float(contact_tolerance)
+        i, j, h = contact_pairs(packing, tol)
+    rattler = rattler_mask(packing.n, i, j, k)
+    per_particle = np.bincount(i, minlength=packing.n) + np.bincount(j, minlength=packing.n)
+    return ContactAnalysis(
+        coordination=_coordination(packing.n, packing.dim, tol, i, j, rattler),
+        pair_i=i, pair_j=j, gap=h, rattler=rattler, contacts_per_particle=per_particle, pressure=p,
+    )
+
+
+def tolerance_scan(
+    packing: Packing, tolerances: np.ndarray | None = None, *, pressure: float | None = None,
+    min_contacts: int | None = None,
+) -> dict[str, np.ndarray]:
+    """Coordination over a range of tolerances (default: the grid of :func:`scan_grid`), to show the plateau.
+
+    Returns arrays keyed like :class:`Coordination` fields, one entry per tolerance.
+    """
+    p = packing_pressure(packing, pressure)
+    grid = scan_grid(p) if tolerances is None else np.asarray(tolerances, dtype=np.float64)
+    if grid.ndim != 1 or len(grid) == 0:
+        raise InputError(f"tolerances: shape {grid.shape}: must be a non-empty 1-d array")
+    for g in grid:
+        _check_tolerance(float(g))
+    k = packing.dim + 1 if min_contacts is None else min_contacts
+    i, j, h = near_pairs(packing, float(grid.max()))
+    rows = []
+    for g in grid:
+        keep = h < g
+        ii, jj = i[keep], j[keep]
+        rows.append(_coordination(packing.n, packing.dim, g, ii, jj, rattler_mask(packing.n, ii, jj, k)))
+    return {name: np.array([getattr(r, name) for r in rows]) for name in Coordination.__dataclass_fields__}
+
+
+def brute_force_contacts(packing: Packing, tolerance: float):
+    """O(N^2) reference for :func:`contact_pairs` (tests)."""
+    i, j, r = neighbours.brute_force_pairs(packing.positions, packing.diameters, packing.box, 1.0 + tolerance)
+    return i, j, r / (0.5 * (packing.diameters[i] + packing.diameters[j])) - 1.0

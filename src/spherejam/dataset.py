@@ -1,0 +1,271 @@
+"""The results database: one self-contained xarray dataset with every run's scalars and full provenance.
+
+Two dimensions:
+
+* ``packing``: one entry per generated packing (protocol, sigma, gamma, replica), with its initial density phi,
+  closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
+* ``grid_run``: the parameter-validation grid (MLS with other parameter sets on selected LS packings).
+
+The config, its hash, package versions and git commit are stored as JSON-string attributes, so the file can be
+archived and browsed without the packing files (``spherejam browse``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .atomic import atomic_output
+from .errors import PackingFileError
+from .experiment import Experiment, GridRun, Run, config_hash
+from .packing_io import FORMAT, dumps
+from .provenance import provenance
+
+#: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
+VARIABLES: dict[str, tuple[str, str]] = {
+    "phi": ("packing fraction of the generated packing", "1"),
+    "pressure": ("reduced pressure p = PV/(N kB T) at the end of generation (LS only)", "1"),
+    "generation_collisions": ("collisions of the LS generation run", "1"),
+    "generation_iterations": ("iterations of the FB generation run, or LS pressure windows", "1"),
+    "generation_wall_time": ("wall time of the generation run", "s"),
+    "phi_J": ("closest jamming density (MLS)", "1"),
+    "pressure_J": ("reduced pressure at the end of MLS", "1"),
+    "mls_collisions": ("collisions of the MLS run", "1"),
+    "mls_stages": ("compression stages of the MLS run", "1"),
+    "mls_windows": ("pressure windows of the MLS run", "1"),
+    "mls_wall_time": ("wall time of the MLS run", "s"),
+    "grid_phi": ("packing fraction of the source LS packing", "1"),
+    "grid_phi_J": ("closest jamming density (MLS with the grid's parameters)", "1"),
+    "grid_collisions": ("collisions of the MLS run", "1"),
+    "grid_stages": ("compression stages of the MLS run", "1"),
+    "grid_wall_time": ("wall time of the MLS run", "s"),
+}
+COORDS: dict[str, tuple[str, str]] = {
+    "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
+    "sigma": ("relative standard deviation of the log-normal diameters", "1"),
+    "rate": ("compression rate gamma (LS: d rho/dt with m = kB = 1, T = 0.2; FB: per iteration)", "1"),
+    "inverse_rate": ("inverse compression rate 1/gamma", "1"),
+    "replica": ("replica index", "1"),
+    "seed": ("seed of the Poisson configuration", "1"),
+    "key": ("path of the run below packings/", ""),
+    "grid_sigma": ("relative standard deviation of the source LS packing", "1"),
+    "grid_rate": ("LS compression rate gamma of the source packing", "1"),
+    "grid_inverse_rate": ("inverse LS compression rate 1/gamma of the source packing", "1"),
+    "grid_replica": ("replica index of the source packing", "1"),
+    "decrease_factor": ("MLS compression-rate decrease factor", "1"),
+    "initial_rate": ("MLS initial compression rate", "1"),
+    "final_rate": ("MLS final compression rate", "1"),
+}
+
+
+def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
+    """Write the resolved experiment (config, hash, provenance) that the dataset builder reads."""
+    exp = Experiment(config)
+    manifest = {"config": config, "config_hash": config_hash(config), "provenance": provenance()}
+    with atomic_output(path, ".json") as tmp:
+        Path(tmp).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
+    del exp  # constructing it validated the design
+    return Path(path)
+
+
+def _attrs(path: Path) -> dict[str, Any]:
+    """The scalar attributes of a packing file (not its arrays: those were validated when written)."""
+    import h5py
+
+    if not path.exists():
+        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    try:
+        with h5py.File(path, "r") as f:
+            a = dict(f.attrs)
+    except OSError as exc:
+        raise PackingFileError(f"{path}: unreadable ({str(exc).splitlines()[0]})") from None
+    if a.get("format") != FORMAT:
+        raise PackingFileError(f"{path}: not a spherejam packing file")
+    out = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in a.items()}
+    for key in ("parameters", "counters", "metadata"):
+        out[key] = json.loads(out.get(key, "{}"))
+    return out
+
+
+def _num(value) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return math.nan
+    return x
+
+
+def _generation_scalars(a: dict[str, Any]) -> dict[str, float]:
+    c = a["counters"]
+    return {
+        "phi": _num(a.get("phi")),
+        "pressure": _num(a.get("reduced_pressure")),
+        "generation_collisions": _num(c.get("collisions")),
+        "generation_iterations": _num(c.get("iterations", c.get("windows"))),
+        "generation_wall_time": _num(c.get("wall_time")),
+    }
+
+
+def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
+    c = a["counters"]
+    p = prefix or "mls_"
+    out = {
+        f"{p}collisions": _num(c.get("collisions")),
+        f"{p}stages": _num(c.get("stages")),
+        f"{p}wall_time": _num(c.get("wall_time")),
+    }
+    if not prefix:
+        out.update(phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows")))
+    else:
+        out[f"{p}phi_J"] = _num(a.get("phi"))
+    return out
+
+
+def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
+    if not path.exists():
+        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise PackingFileError(f"{path}: corrupt JSON ({exc})") from None
+    flat = data.get("scalars", data)
+    return {f"{prefix}{k}": _num(v) for k, v in flat.items() if isinstance(v, (int, float, bool)) or v is None}
+
+
+def collect_runs(exp: Experiment) -> tuple[list[Run], list[dict[str, float]]]:
+    rows = []
+    runs = exp.runs()
+    for run in runs:
+        row = _generation_scalars(_attrs(exp.path(run, "initial")))
+        row.update(_mls_scalars(_attrs(exp.path(run, "jammed"))))
+        if exp.config.get("analysis", {}).get("enabled", True):
+            row.update(_json_scalars(exp.path(run, "structure"), ""))
+        if exp.config.get("calippso", {}).get("enabled", True):
+            row.update(_json_scalars(exp.path(run, "calippso"), "calippso_"))
+        rows.append(row)
+    return runs, rows
+
+
+def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]]:
+    rows = []
+    runs = exp.grid_runs()
+    for g in runs:
+        a = _attrs(exp.grid_path(g))
+        row = _mls_scalars(a, prefix="grid_")
+        row["grid_phi"] = _num(_attrs(exp.path(g.source, "initial")).get("phi"))
+        rows.append(row)
+    return runs, rows
+
+
+def _describe(ds, extra: dict[str, tuple[str, str]]) -> None:
+    table = {**COORDS, **VARIABLES, **extra}
+    for name in list(ds.variables):
+        base = name.removeprefix("calippso_") if name not in table else name
+        long_name, units = table.get(name, table.get(base, (name.replace("_", " "), "")))
+        if name.startswith("calippso_") and name not in table:
+            long_name = f"CALiPPSO: {long_name}"
+        ds[name].attrs.setdefault("long_name", long_name)
+        if units:
+            ds[name].attrs.setdefault("units", units)
+
+
+def _structure_variables() -> dict[str, tuple[str, str]]:
+    out: dict[str, tuple[str, str]] = {}
+    for module, attr in (("structure", "VARIABLES"), ("calippso", "VARIABLES")):
+        try:
+            mod = __import__(f"spherejam.{module}", fromlist=[attr])
+            out.update(getattr(mod, attr, {}))
+        except ImportError:
+            pass
+    return out
+
+
+def build_dataset(manifest_path: str | os.PathLike):
+    """Assemble the dataset of the experiment described by a manifest (see :func:`write_manifest`)."""
+    import xarray as xr
+
+    manifest_path = Path(manifest_path)
+    try:
+        manifest = json.loads(manifest_path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise PackingFileError(f"{manifest_path}: unreadable manifest ({exc})") from None
+    config = manifest["config"]
+    exp = Experiment(config)
+
+    runs, rows = collect_runs(exp)
+    names = sorted({k for r in rows for k in r})
+    data_vars = {name: ("packing", np.array([r.get(name, math.nan) for r in rows], dtype=float)) for name in names}
+    coords = {
+        "protocol": ("packing", np.array([r.protocol for r in runs], dtype=str)),
+        "sigma": ("packing", np.array([r.sigma for r in runs])),
+        "rate": ("packing", np.array([r.rate for r in runs])),
+        "inverse_rate": ("packing", 1.0 / np.array([r.rate for r in runs])),
+        "replica": ("packing", np.array([r.replica for r in runs], dtype=np.int64)),
+        "seed": ("packing", np.array([r.seed(exp.master_seed) for r in runs], dtype=np.int64)),
+        "key": ("packing", np.array([r.key for r in runs], dtype=str)),
+    }
+    grid_runs, grid_rows = collect_grid(exp)
+    if grid_runs:
+        gnames = sorted({k for r in grid_rows for k in r})
+        data_vars.update(
+            {n: ("grid_run", np.array([r.get(n, math.nan) for r in grid_rows], dtype=float)) for n in gnames}
+        )
+        coords.update(
+            grid_sigma=("grid_run", np.array([g.source.sigma for g in grid_runs])),
+            grid_rate=("grid_run", np.array([g.source.rate for g in grid_runs])),
+            grid_inverse_rate=("grid_run", 1.0 / np.array([g.source.rate for g in grid_runs])),
+            grid_replica=("grid_run", np.array([g.source.replica for g in grid_runs], dtype=np.int64)),
+            decrease_factor=("grid_run", np.array([g.decrease_factor for g in grid_runs])),
+            initial_rate=("grid_run", np.array([g.initial_rate for g in grid_runs])),
+            final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
+        )
+    ds = xr.Dataset(data_vars=data_vars, coords=coords)
+    extra = _structure_variables()
+    _describe(ds, extra)
+    prov = provenance()
+    ds.attrs.update(
+        title="spherejam results: jammed hard-sphere packings and RCP limits",
+        Conventions="CF-1.10",
+        source=f"spherejam {prov['spherejam_version']}",
+        references="V. Baranau and U. Tallarek, Soft Matter 10, 3826 (2014)",
+        n=int(exp.n),
+        config=dumps(config),
+        config_hash=manifest["config_hash"],
+        git_commit=prov["git_commit"],
+        package_versions=dumps(prov["package_versions"]),
+        created=prov["created"],
+        history=f"{prov['created']}: built by spherejam dataset from {manifest_path.name}",
+    )
+    return ds
+
+
+def write_dataset(ds, path: str | os.PathLike) -> Path:
+    """Write ``ds`` atomically as netCDF4 (h5netcdf engine)."""
+    with atomic_output(path, ".nc") as tmp:
+        ds.to_netcdf(tmp, engine="h5netcdf")
+    return Path(path)
+
+
+def open_dataset(path: str | os.PathLike):
+    """Load a results dataset fully into memory, with a clear error for a missing or foreign file."""
+    import xarray as xr
+
+    path = Path(path)
+    if not path.exists():
+        raise PackingFileError(f"{path}: no such dataset")
+    try:
+        ds = xr.load_dataset(path, engine="h5netcdf")
+    except Exception as exc:  # noqa: BLE001 - netCDF backends raise many types
+        raise PackingFileError(f"{path}: not a readable netCDF dataset ({str(exc).splitlines()[0]})") from None
+    if "config" not in ds.attrs or "packing" not in ds.dims:
+        raise PackingFileError(f"{path}: not a spherejam results dataset (no 'config' attribute or 'packing' dim)")
+    return ds
+
+
+def dataset_config(ds) -> dict[str, Any]:
+    return json.loads(ds.attrs["config"])

@@ -1,0 +1,535 @@
+"""Event-driven machinery for hard spheres with linearly growing diameters in a periodic cube (d = 3).
+
+This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherejam.lubachevsky_stillinger`); the
+protocol itself (windows, pressure, thermostat, stopping, checkpoints) lives there. All functions are numba
+``njit(cache=True)`` kernels over plain arrays.
+
+State (structure of arrays, one cache line per particle)
+    ``st[i] = (x, y, z, vx, vy, vz, t_i, D_i)``: position at the particle's own last-update time ``t_i``
+    (positions are advanced lazily, x(t) = x_i + v_i (t - t_i)), velocity, and nominal diameter D_i (mean 1).
+    Actual diameters are rho(t) D_i with rho(t) = rho0 + gamma t (gamma = d rho/dt, the paper's compression rate).
+
+Events (Lubachevsky 1991: one scheduled event per particle, kept in an indexed binary min-heap)
+    ``MOVE``      re-predict only (an invalidated prediction, or the initial state),
+    ``COLLISION`` with ``ev_partner[i]``; the partner always holds the mirror event (same time, partner i),
+    ``SKIN``      the particle leaves its Verlet skin sphere: its neighbour list is rebuilt locally.
+    A collision with j is accepted only if it is not later than j's own event ("availability"); when j's previous
+    partner k loses j, k's event is demoted to a MOVE at the same time.
+
+Neighbour lists (exact at every density)
+    j is listed with i iff |X_i - X_j| < rho_list D_ij + skin for the reference centres X. While every particle is
+    within skin/2 of its reference centre and rho(t) <= rho_list, every pair that can touch is listed. Leaving the
+    skin sphere is a per-particle event (a local, symmetric list update through a linked-cell grid, no global sweep);
+    reaching rho_list ends a kernel call (``HORIZON``) so the caller rebuilds all lists. Both the skin and rho_list
+    are set from the *actual* diameters, so growth from phi ~ 1e-5 to jamming stays exact and O(N) per sweep.
+    Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold is always
+    the minimum image (every list cutoff is < L/2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+MOVE = 0
+COLLISION = 1
+SKIN = 2
+
+#: Kernel return codes.
+WINDOW_DONE = 0  #: the requested number of events (or collisions) was processed
+HORIZON = 1  #: the next event lies beyond the time horizon; every particle is synchronised to it
+OVERFLOW = 2  #: a neighbour list is full; enlarge the capacity and call again (state untouched)
+INCONSISTENT = 3  #: an event time went backwards or became NaN
+
+#: Indices into the integer counter array of a window.
+C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
+N_COUNTERS = 5
+
+_INF = np.inf
+
+
+# --- indexed binary min-heap over particles, keyed by ev_time ------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _sift_up(heap, hpos, key, k):
+    i = heap[k]
+    ki = key[i]
+    while k > 0:
+        parent = (k - 1) >> 1
+        p = heap[parent]
+        if key[p] <= ki:
+            break
+        heap[k] = p
+        hpos[p] = k
+        k = parent
+    heap[k] = i
+    hpos[i] = k
+
+
+@njit(cache=True, inline="always")
+def _sift_down(heap, hpos, key, k, n):
+    i = heap[k]
+    ki = key[i]
+    while True:
+        c = 2 * k + 1
+        if c >= n:
+            break
+        cv = key[heap[c]]
+        if c + 1 < n:
+            cv2 = key[heap[c + 1]]
+            if cv2 < cv:
+                c += 1
+                cv = cv2
+        if ki <= cv:
+            break
+        heap[k] = heap[c]
+        hpos[heap[c]] = k
+        k = c
+    heap[k] = i
+    hpos[i] = k
+
+
+@njit(cache=True, inline="always")
+def heap_update(heap, hpos, key, i, n):
+    """Restore the heap after key[i] changed (either direction)."""
+    k = hpos[i]
+    if k > 0 and key[heap[(k - 1) >> 1]] > key[i]:
+        _sift_up(heap, hpos, key, k)
+    else:
+        _sift_down(heap, hpos, key, k, n)
+
+
+@njit(cache=True)
+def heap_build(heap, hpos, key, n):
+    for k in range(n):
+        heap[k] = k
+        hpos[k] = k
+    for k in range(n // 2 - 1, -1, -1):
+        _sift_down(heap, hpos, key, k, n)
+
+
+# --- pair kinematics -------------------------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def fold(dx, box, half):
+    """Minimum image of a difference known to lie in (-1.5 L, 1.5 L)."""
+    if dx > half:
+        return dx - box
+    if dx < -half:
+        return dx + box
+    return dx
+
+
+@njit(cache=True, inline="always")
+def collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
+    """Time tau >= 0 until |r + u tau| = sig (rho + gamma tau), or inf.
+
+    ``r`` = x_j - x_i, ``u`` = v_j - v_i, ``sig`` = nominal contact distance D_ij, ``rho`` the current scale factor.
+    Solves A tau^2 + 2 B tau + C = 0 with A = u.u - sig^2 gamma^2, B = r.u - sig^2 rho gamma,
+    C = r.r - sig^2 rho^2, using the cancellation-free root. Touching or (round-off) overlapping pairs collide at
+    once iff they approach in the frame of the growing surfaces (d/dt (|r| - sig rho) < 0), else never.
+    """
+    s2 = sig * sig
+    ru = rx * ux + ry * uy + rz * uz
+    b = ru - s2 * rho * gamma
+    a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+    if b >= 0.0 and a >= 0.0:
+        return _INF
+    r2 = rx * rx + ry * ry + rz * rz
+    c = r2 - s2 * rho * rho
+    if c <= 0.0:
+        # the gap |r| - sig rho is convex in time: if it is not shrinking now it never will
+        if ru < np.sqrt(r2) * sig * gamma:
+            return 0.0
+        return _INF
+    disc = b * b - a * c
+    if disc < 0.0:
+        if disc > -1e-14 * b * b:  # grazing: round-off made a double root negative
+            disc = 0.0
+        else:
+            return _INF
+    if b < 0.0:
+        return c / (np.sqrt(disc) - b)
+    return (b + np.sqrt(disc)) / (-a)
+
+
+@njit(cache=True, inline="always")
+def skin_exit_delay(dx, dy, dz, vx, vy, vz, h):
+    """Time until a particle at offset d from its reference centre, moving at v, reaches distance h (or inf)."""
+    a = vx * vx + vy * vy + vz * vz
+    c = dx * dx + dy * dy + dz * dz - h * h
+    if c >= 0.0:
+        return 0.0
+    if a == 0.0:
+        return _INF
+    b = dx * vx + dy * vy + dz * vz
+    disc = b * b - a * c
+    if b > 0.0:
+        return -c / (b + np.sqrt(disc))
+    return (np.sqrt(disc) - b) / a
+
+
+@njit(cache=True)
+def sync_all(st, t):
+    """Advance every particle to time t (positions only)."""
+    n = st.shape[0]
+    for i in range(n):
+        dt = t - st[i, 6]
+        st[i, 0] += st[i, 3] * dt
+        st[i, 1] += st[i, 4] * dt
+        st[i, 2] += st[i, 5] * dt
+        st[i, 6] = t
+
+
+@njit(cache=True, inline="always")
+def _sync(st, i, t):
+    dt = t - st[i, 6]
+    st[i, 0] += st[i, 3] * dt
+    st[i, 1] += st[i, 4] * dt
+    st[i, 2] += st[i, 5] * dt
+    st[i, 6] = t
+
+
+# --- linked-cell grid and Verlet lists ---------------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def _cell_of(x, y, z, box, m):
+    cx = int(np.floor(x / box * m)) % m
+    cy = int(np.floor(y / box * m)) % m
+    cz = int(np.floor(z / box * m)) % m
+    return (cz * m + cy) * m + cx
+
+
+@njit(cache=True, inline="always")
+def _wrap(x, box):
+    if x < 0.0:
+        x += box
+        if x >= box:  # -tiny + box rounds to box
+            x = 0.0
+    elif x >= box:
+        x -= box
+    return x
+
+
+@njit(cache=True)
+def build_lists(st, box, rho_list, skin, m, cap):
+    """All neighbour lists from scratch; every particle must be synchronised.
+
+    Wraps positions into [0, L), sets the reference centres to them and links the cells. Returns
+    ``(refs, nbr, nnb, head, nxt, prv, cellof, max_count)``; if ``max_count > cap`` the lists are incomplete and the
+    caller must call again with a larger ``cap``.
+    """
+    n = st.shape[0]
+    refs = np.empty((n, 3))
+    for i in range(n):
+        for k in range(3):
+            st[i, k] = _wrap(st[i, k], box)
+            refs[i, k] = st[i, k]
+    ncell = m * m * m
+    head = np.full(ncell, -1, dtype=np.int32)
+    nxt = np.full(n, -1, dtype=np.int32)
+    prv = np.full(n, -1, dtype=np.int32)
+    cellof = np.empty(n, dtype=np.int32)
+    for i in range(n - 1, -1, -1):  # reverse so each cell lists particles in index order
+        c = _cell_of(refs[i, 0], refs[i, 1], refs[i, 2], box, m)
+        cellof[i] = c
+        nxt[i] = head[c]
+        if head[c] >= 0:
+            prv[head[c]] = i
+        head[c] = i
+    nbr = np.empty((n, cap), dtype=np.int32)
+    nnb = np.zeros(n, dtype=np.int32)
+    half = 0.5 * box
+    max_count = 0
+    for i in range(n):
+        c = cellof[i]
+        cz = c // (m * m)
+        cy = (c // m) % m
+        cx = c % m
+        count = 0
+        ndz = 3 if m >= 3 else 1
+        for oz in range(ndz):
+            for oy in range(ndz):
+                for ox in range(ndz):
+                    if m >= 3:
+                        cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
+                    else:
+                        cc = 0
+                    j = head[cc]
+                    while j >= 0:
+                        if j != i:
+                            dx = fold(refs[j, 0] - refs[i, 0], box, half)
+                            dy = fold(refs[j, 1] - refs[i, 1], box, half)
+                            dz = fold(refs[j, 2] - refs[i, 2], box, half)
+                            cut = rho_list * 0.5 * (st[i, 7] + st[j, 7]) + skin
+                            if dx * dx + dy * dy + dz * dz < cut * cut:
+                                if count < cap:
+                                    nbr[i, count] = j
+                                count += 1
+                        j = nxt[j]
+        nnb[i] = min(count, cap)
+        if count > max_count:
+            max_count = count
+    return refs, nbr, nnb, head, nxt, prv, cellof, max_count
+
+
+@njit(cache=True)
+def _local_candidates(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch):
+    """Particles j != i with |X_j - x| < cut_ij, written to scratch; returns their count (may exceed scratch)."""
+    half = 0.5 * box
+    c = _cell_of(x, y, z, box, m)
+    cz = c // (m * m)
+    cy = (c // m) % m
+    cx = c % m
+    count = 0
+    ndz = 3 if m >= 3 else 1
+    cap = scratch.shape[0]
+    for oz in range(ndz):
+        for oy in range(ndz):
+            for ox in range(ndz):
+                if m >= 3:
+                    cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
+                else:
+                    cc = 0
+                j = head[cc]
+                while j >= 0:
+                    if j != i:
+                        dx = fold(refs[j, 0] - x, box, half)
+                        dy = fold(refs[j, 1] - y, box, half)
+                        dz = fold(refs[j, 2] - z, box, half)
+                        cut = rho_list * 0.5 * (st[i, 7] + st[j, 7]) + skin
+                        if dx * dx + dy * dy + dz * dz < cut * cut:
+                            if count < cap:
+                                scratch[count] = j
+                            count += 1
+                    j = nxt[j]
+    return count
+
+
+@njit(cache=True, inline="always")
+def _remove_from_list(nbr, nnb, j, i):
+    cnt = nnb[j]
+    for k in range(cnt):
+        if nbr[j, k] == i:
+            nbr[j, k] = nbr[j, cnt - 1]
+            nnb[j] = cnt - 1
+            return True
+    return False
+
+
+@njit(cache=True)
+def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
+    """Local Verlet update of particle i (synchronised): new reference centre = its wrapped position.
+
+    Returns False (and changes nothing) if a list would overflow.
+    """
+    cap = nbr.shape[1]
+    x = _wrap(st[i, 0], box)
+    y = _wrap(st[i, 1], box)
+    z = _wrap(st[i, 2], box)
+    count = _local_candidates(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch)
+    if count > cap or count > scratch.shape[0]:
+        return False
+    for k in range(count):
+        if nnb[scratch[k]] >= cap:  # conservative: i may already be listed there
+            return False
+    # drop i from its old neighbours' lists
+    for k in range(nnb[i]):
+        _remove_from_list(nbr, nnb, nbr[i, k], i)
+    # move i's reference centre and cell
+    st[i, 0] = x
+    st[i, 1] = y
+    st[i, 2] = z
+    refs[i, 0] = x
+    refs[i, 1] = y
+    refs[i, 2] = z
+    c_new = _cell_of(x, y, z, box, m)
+    c_old = cellof[i]
+    if c_new != c_old:
+        if prv[i] >= 0:
+            nxt[prv[i]] = nxt[i]
+        else:
+            head[c_old] = nxt[i]
+        if nxt[i] >= 0:
+            prv[nxt[i]] = prv[i]
+        prv[i] = -1
+        nxt[i] = head[c_new]
+        if head[c_new] >= 0:
+            prv[head[c_new]] = i
+        head[c_new] = i
+        cellof[i] = c_new
+    for k in range(count):
+        j = scratch[k]
+        nbr[i, k] = j
+        nbr[j, nnb[j]] = i
+        nnb[j] += 1
+    nnb[i] = count
+    return True
+
+
+# --- event prediction ---------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin,
+             update_heap):
+    """Schedule particle i's next event at time t (its own current event is released first)."""
+    n = st.shape[0]
+    half = 0.5 * box
+    # release: a partner that expected to collide with i falls back to a re-prediction at the same time
+    if ev_type[i] == COLLISION:
+        k = ev_partner[i]
+        if ev_type[k] == COLLISION and ev_partner[k] == i:
+            ev_type[k] = MOVE
+            ev_partner[k] = -1
+    dti = t - st[i, 6]
+    xi = st[i, 0] + st[i, 3] * dti
+    yi = st[i, 1] + st[i, 4] * dti
+    zi = st[i, 2] + st[i, 5] * dti
+    vxi = st[i, 3]
+    vyi = st[i, 4]
+    vzi = st[i, 5]
+    di = st[i, 7]
+    rho = rho0 + gamma * t
+    best = skin_exit_delay(xi - refs[i, 0], yi - refs[i, 1], zi - refs[i, 2], vxi, vyi, vzi, 0.5 * skin) + t
+    best_type = SKIN
+    best_j = -1
+    for kk in range(nnb[i]):
+        j = nbr[i, kk]
+        if j == exclude:
+            continue
+        dtj = t - st[j, 6]
+        ux = st[j, 3] - vxi
+        uy = st[j, 4] - vyi
+        uz = st[j, 5] - vzi
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
+        tau = collision_delay(rx, ry, rz, ux, uy, uz, 0.5 * (di + st[j, 7]), rho, gamma)
+        if tau < _INF:
+            tc = t + tau
+            if tc < best and tc <= ev_time[j]:
+                best = tc
+                best_type = COLLISION
+                best_j = j
+    ev_time[i] = best
+    ev_type[i] = best_type
+    ev_partner[i] = best_j
+    if update_heap:
+        heap_update(heap, hpos, ev_time, i, n)
+    if best_type == COLLISION:
+        j = best_j
+        if ev_type[j] == COLLISION:
+            k = ev_partner[j]
+            if k != i and ev_type[k] == COLLISION and ev_partner[k] == j:
+                ev_type[k] = MOVE
+                ev_partner[k] = -1
+        ev_time[j] = best
+        ev_type[j] = COLLISION
+        ev_partner[j] = i
+        if update_heap:
+            _sift_up(heap, hpos, ev_time, hpos[j])
+
+
+@njit(cache=True)
+def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin):
+    """Predict every particle's event from scratch (all synchronised at t) and build the heap."""
+    n = st.shape[0]
+    for i in range(n):
+        ev_time[i] = t
+        ev_type[i] = MOVE
+        ev_partner[i] = -1
+    for i in range(n):
+        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, False)
+    heap_build(heap, hpos, ev_time, n)
+
+
+@njit(cache=True)
+def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
+               rho0, gamma, rho_list, skin, t, target, count_collisions, t_horizon, counters, acc):
+    """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
+
+    ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
+    Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
+    """
+    n = st.shape[0]
+    half = 0.5 * box
+    while True:
+        i = heap[0]
+        te = ev_time[i]
+        if te > t_horizon:
+            sync_all(st, t_horizon)
+            return HORIZON, t_horizon
+        if not te >= t:  # also catches NaN
+            return INCONSISTENT, t
+        kind = ev_type[i]
+        if kind == SKIN:
+            _sync(st, i, te)
+            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
+                return OVERFLOW, t
+            t = te
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            counters[C_SKIN] += 1
+        elif kind == COLLISION:
+            t = te
+            j = ev_partner[i]
+            _sync(st, i, t)
+            _sync(st, j, t)
+            rx = fold(st[j, 0] - st[i, 0], box, half)
+            ry = fold(st[j, 1] - st[i, 1], box, half)
+            rz = fold(st[j, 2] - st[i, 2], box, half)
+            r = np.sqrt(rx * rx + ry * ry + rz * rz)
+            nx = rx / r
+            ny = ry / r
+            nz = rz / r
+            g = gamma * 0.5 * (st[i, 7] + st[j, 7])
+            vin = st[i, 3] * nx + st[i, 4] * ny + st[i, 5] * nz
+            vjn = st[j, 3] * nx + st[j, 4] * ny + st[j, 5] * nz
+            w = vjn - vin  # rate of change of |r|; the contact distance grows at g
+            if w < g:
+                # elastic reflection in the frame of the growing surfaces: w' - g = -(w - g)
+                dv = vjn - vin - g
+                st[i, 3] += dv * nx
+                st[i, 4] += dv * ny
+                st[i, 5] += dv * nz
+                st[j, 3] -= dv * nx
+                st[j, 4] -= dv * ny
+                st[j, 5] -= dv * nz
+                acc[0] += (vin - vjn) * r
+                counters[C_COLLISIONS] += 1
+            else:  # round-off made a predicted contact separate already: nothing to reflect
+                counters[C_NULL] += 1
+            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+        else:
+            t = te
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            counters[C_MOVES] += 1
+        counters[C_EVENTS] += 1
+        done = counters[C_COLLISIONS] if count_collisions else counters[C_EVENTS]
+        if done >= target:
+            sync_all(st, t)
+            return WINDOW_DONE, t
+
+
+@njit(cache=True)
+def min_listed_ratio(st, nbr, nnb, box, rho):
+    """min over listed pairs of |r_ij| / (rho D_ij) (synchronised state): < 1 means an overlap."""
+    n = st.shape[0]
+    half = 0.5 * box
+    best = _INF
+    for i in range(n):
+        for k in range(nnb[i]):
+            j = nbr[i, k]
+            if j <= i:
+                continue
+            rx = fold(st[j, 0] - st[i, 0], box, half)
+            ry = fold(st[j, 1] - st[i, 1], box, half)
+            rz = fold(st[j, 2] - st[i, 2], box, half)
+            h = np.sqrt(rx * rx + ry * ry + rz * rz) / (rho * 0.5 * (st[i, 7] + st[j, 7]))
+            if h < best:
+                best = h
+    return best

@@ -1,0 +1,88 @@
+"""Sparse rows of the CALiPPSO linear program: linearised non-overlap constraints, built by numba kernels.
+
+For a pair i < j with minimum-image vector r_ij = r_i - r_j and contact distance sigma_ij = (D_i + D_j)/2, the exact
+non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sigma_ij^2. Dropping the |s_i - s_j|^2
+>= 0 term gives the linear row
+
+    -2 r_ij . s_i + 2 r_ij . s_j + sigma_ij^2 Gamma <= |r_ij|^2,
+
+whose feasible set lies inside the exact one, so every LP-feasible step is overlap-free for the constrained pairs.
+Columns are ordered s_{0,0..d-1}, s_{1,0..d-1}, ..., s_{N-1,d-1}, Gamma (d N + 1 columns); each row has 2d + 1
+nonzeros in increasing column order (CSR).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .neighbours import minimum_image, pairs_within
+
+
+@njit(cache=True)
+def pair_vectors(positions, box, pi, pj):
+    """Minimum-image vectors r_ij = r_i - r_j of the listed pairs, shape (M, d)."""
+    m = pi.shape[0]
+    dim = positions.shape[1]
+    out = np.empty((m, dim))
+    for k in range(m):
+        i = pi[k]
+        j = pj[k]
+        for a in range(dim):
+            out[k, a] = minimum_image(positions[i, a] - positions[j, a], box)
+    return out
+
+
+@njit(cache=True)
+def constraint_rows(rij, sigma2, pi, pj, n):
+    """CSR arrays (start, index, value) and right-hand sides |r_ij|^2 of the linearised rows.
+
+    ``rij`` are the pair vectors r_i - r_j, ``sigma2`` the squared contact distances, ``n`` the particle count.
+    """
+    m, dim = rij.shape
+    nnz_row = 2 * dim + 1
+    start = np.empty(m + 1, dtype=np.int32)
+    index = np.empty(m * nnz_row, dtype=np.int32)
+    value = np.empty(m * nnz_row)
+    rhs = np.empty(m)
+    gamma_col = n * dim
+    for k in range(m):
+        base = k * nnz_row
+        start[k] = base
+        i = pi[k]
+        j = pj[k]
+        # i < j, so the s_i columns come before the s_j columns and Gamma is last
+        r2 = 0.0
+        for a in range(dim):
+            c = rij[k, a]
+            r2 += c * c
+            index[base + a] = i * dim + a
+            value[base + a] = -2.0 * c
+            index[base + dim + a] = j * dim + a
+            value[base + dim + a] = 2.0 * c
+        index[base + 2 * dim] = gamma_col
+        value[base + 2 * dim] = sigma2[k]
+        rhs[k] = r2
+    start[m] = m * nnz_row
+    return start, index, value, rhs
+
+
+@njit(cache=True)
+def particle_force_sums(rij, weight, pi, pj, n):
+    """Per-particle sums of weight_k * r_ij over the pairs (i gets +, j gets -), shape (n, d)."""
+    m, dim = rij.shape
+    out = np.zeros((n, dim))
+    for k in range(m):
+        w = weight[k]
+        if w == 0.0:
+            continue
+        for a in range(dim):
+            out[pi[k], a] += w * rij[k, a]
+            out[pj[k], a] -= w * rij[k, a]
+    return out
+
+
+def pairs_in_cutoff(positions: np.ndarray, box: float, cutoff: float):
+    """Pairs i < j with centre distance r_ij < ``cutoff`` (an absolute length), via the shared cell list."""
+    n = positions.shape[0]
+    return pairs_within(positions, np.full(n, float(cutoff)), box, 1.0)

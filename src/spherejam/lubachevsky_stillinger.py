@@ -1,0 +1,530 @@
+"""Lubachevsky–Stillinger (LS) compression: event-driven MD of hard spheres whose diameters grow linearly in time.
+
+Physics (paper §III.B; ``algorithms.md`` §2). Mass m = 1, k_B = 1, temperature T = 0.2 (rms speed sqrt(3 T)).
+Diameters are D_i(t) = D_i0 (rho0 + gamma t): D_i0 are the nominal diameters (the input's actual diameters divided
+by their mean, so mean 1 in the box's length unit), rho0 starts at the input's closest-pair ratio (the closest pair
+touches) and gamma = d rho/dt is the compression rate (per unit time). Collisions are elastic in the frame of the
+growing surfaces: the normal relative speed w becomes 2 g - w, g = gamma D_ij.
+
+Windows. The run is a sequence of windows of ``events_per_particle`` x N events (all event kinds, as in the
+reference code; or collisions only, ``count_collisions_only=True``). After each window:
+
+* reduced pressure p = PV/(N k_B T) = 1 + |X| / (2 E dt) from the collision virial X = sum |r_ij| (v_i - v_j).n_ij
+  (pre-collision velocities, growth term excluded), E = kinetic energy at the end of the window, dt its duration;
+* thermostat: velocities are rescaled to exactly E = (3/2) N T;
+* clock reset: rho0 += gamma dt, t = 0 (keeps times small near jamming; every event is re-predicted, none lost);
+* audit: every listed pair is checked for overlap (relative tolerance 1e-10), else :class:`SimulationError`.
+
+The run stops at p >= p_max (1e12), at ``target_phi``, after ``max_collisions`` or ``max_wall_time``. The result
+is audited again with an independent all-pairs cell search; an overlapping packing is never returned.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from . import event_driven as ed
+from .checkpoint import load_checkpoint, save_checkpoint
+from .errors import InputError, PackingFileError, SimulationError, require
+from .neighbours import closest_pair
+from .packing import Packing, ball_volume
+from .runs import History, Progress, RunResult
+
+DEFAULT_TEMPERATURE = 0.2
+#: Relative overlap that makes a window audit (or the final audit) fail.
+AUDIT_TOLERANCE = 1e-10
+CHECKPOINT_KIND_LS = "ls"
+
+_HISTORY_COLUMNS = ("window", "phi", "pressure", "rate", "collisions", "events", "duration", "temperature",
+                    "wall_time")
+
+
+@dataclass
+class WindowStats:
+    """One window: simulated duration, reduced pressure p, end temperature (before the thermostat), counts."""
+
+    duration: float
+    pressure: float
+    temperature: float
+    collisions: int
+    events: int
+    skin_events: int
+    moves: int
+    null_collisions: int
+    list_rebuilds: int
+    reached_target: bool
+
+
+class LSEngine:
+    """Event-driven MD state of N growing hard spheres in a periodic cube (d = 3).
+
+    Parameters
+    ----------
+    positions : (N, 3) float64
+    nominal : (N,) float64
+        Nominal diameters D_i0 (any scale; actual diameters are ``rho * nominal``).
+    box : float
+        Side L of the periodic cube.
+    rho : float
+        Current diameter scale factor rho0; no pair may overlap at it.
+    velocities : (N, 3) float64
+    gamma : float
+        Compression rate d rho / dt (>= 0).
+    temperature : float
+        Target temperature T of the thermostat (k_B = m = 1).
+    skin_fraction : float
+        Verlet skin as a fraction of the mean actual diameter in dense states.
+    list_margin : float
+        Lists are built for diameters up to (1 + list_margin) times the current ones while compressing.
+    dilute_neighbours : float
+        In dilute states the list radius is widened so that about this many centres fall inside it.
+    """
+
+    def __init__(self, positions, nominal, box, rho, velocities, gamma, temperature=DEFAULT_TEMPERATURE, *,
+                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0):
+        positions = np.asarray(positions, dtype=np.float64)
+        n = positions.shape[0]
+        self.n = n
+        self.box = float(box)
+        self.st = np.zeros((n, 8))
+        self.st[:, 0:3] = positions
+        self.st[:, 3:6] = velocities
+        self.st[:, 7] = nominal
+        self.rho0 = float(rho)
+        self.gamma = float(gamma)
+        self.temperature = float(temperature)
+        self.skin_fraction = float(skin_fraction)
+        self.list_margin = float(list_margin)
+        self.dilute_neighbours = float(dilute_neighbours)
+        self.ev_time = np.zeros(n)
+        self.ev_type = np.zeros(n, dtype=np.int8)
+        self.ev_partner = np.full(n, -1, dtype=np.int32)
+        self.heap = np.zeros(n, dtype=np.int32)
+        self.hpos = np.zeros(n, dtype=np.int32)
+        self.list_rebuilds = 0
+        self.refs = None  # set by rebuild_lists
+        self.rebuild_lists(0.0)
+
+    # --- neighbour lists ------------------------------------------------------------------------------------
+    def rebuild_lists(self, t: float) -> None:
+        """Rebuild all Verlet lists at time t (every particle must be synchronised to t)."""
+        n, box = self.n, self.box
+        nominal = self.st[:, 7]
+        rho = self.rho0 + self.gamma * t
+        dmean, dmax = float(nominal.mean()), float(nominal.max())
+        limit = 0.45 * box  # every list cutoff must stay below L/2 for the single-fold minimum image
+        if rho * dmax >= 0.9 * limit:
+            raise SimulationError(
+                f"box L={box:.6g} is too small for the largest sphere (diameter {rho * dmax:.6g}): the minimum "
+                "image convention needs L > ~2.5 diameters (too few spheres?)"
+            )
+        margin = self.list_margin if self.gamma > 0 else 0.0
+        rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
+        if self.gamma > 0 and not rho_list > rho:
+            raise SimulationError("no room to grow the neighbour lists (box too small)")
+        spacing = (box**3 / n) ** (1.0 / 3.0)
+        r_dilute = spacing * (3.0 * self.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
+        skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
+        skin = min(skin, limit - rho_list * dmax)
+        cell_side = rho_list * dmax + skin
+        m = int(box // cell_side)
+        m = min(m, int(math.ceil((2.0 * n) ** (1.0 / 3.0))))
+        if m < 3:
+            m = 1
+        cap = 16 if self.refs is None else self.nbr.shape[1]
+        while True:
+            refs, nbr, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(self.st, box, rho_list, skin, m, cap)
+            if max_count + 4 <= cap:
+                break
+            cap = int(1.5 * max_count) + 16
+        self.refs, self.nbr, self.nnb = refs, nbr, nnb
+        self.head, self.nxt, self.prv, self.cellof = head, nxt, prv, cellof
+        self.m, self.rho_list, self.skin = m, rho_list, skin
+        self.scratch = np.zeros(max(cap, 64), dtype=np.int32)
+        self.list_rebuilds += 1
+
+    def _enlarge_lists(self) -> None:
+        cap = self.nbr.shape[1]
+        new_cap = int(1.5 * cap) + 8
+        nbr = np.zeros((self.n, new_cap), dtype=np.int32)
+        nbr[:, :cap] = self.nbr
+        self.nbr = nbr
+        self.scratch = np.zeros(new_cap, dtype=np.int32)
+
+    # --- windows --------------------------------------------------------------------------------------------
+    @property
+    def velocities(self) -> np.ndarray:
+        return self.st[:, 3:6]
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.st[:, 0:3]
+
+    @property
+    def nominal(self) -> np.ndarray:
+        return self.st[:, 7]
+
+    def kinetic_energy(self) -> float:
+        v = self.st[:, 3:6]
+        return 0.5 * float(np.sum(v * v))
+
+    def thermalise(self) -> None:
+        """Rescale velocities to exactly E = (3/2) N T."""
+        e = self.kinetic_energy()
+        if not e > 0:
+            raise SimulationError(f"kinetic energy {e!r}: cannot rescale to T = {self.temperature}")
+        self.st[:, 3:6] *= math.sqrt(1.5 * self.n * self.temperature / e)
+
+    def window(self, target: int, count_collisions: bool = False, rho_target: float | None = None) -> WindowStats:
+        """Run one window of ``target`` events (or collisions), then pressure, thermostat and clock reset.
+
+        If ``rho_target`` is reached first, the window ends there (``reached_target``).
+        """
+        t = 0.0
+        counters = np.zeros(ed.N_COUNTERS, dtype=np.int64)
+        acc = np.zeros(1)
+        rebuilds0 = self.list_rebuilds
+        need_init = True
+        reached = False
+        if not np.all(self.st[:, 6] == 0.0):
+            raise SimulationError("window started with unsynchronised particles")
+        while True:
+            g = self.gamma
+            t_list = (self.rho_list - self.rho0) / g if g > 0 else math.inf
+            t_target = (rho_target - self.rho0) / g if (rho_target is not None and g > 0) else math.inf
+            horizon = min(t_list, t_target)
+            if need_init:
+                ed.init_events(t, self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap,
+                               self.hpos, self.nbr, self.nnb, self.box, self.rho0, g, self.skin)
+            status, t = ed.run_events(
+                self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.nbr,
+                self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m, self.rho0, g,
+                self.rho_list, self.skin, t, target, count_collisions, horizon, counters, acc,
+            )
+            if status == ed.WINDOW_DONE:
+                break
+            if status == ed.OVERFLOW:
+                self._enlarge_lists()
+                need_init = False
+            elif status == ed.HORIZON:
+                if t >= t_target:
+                    reached = True
+                    break
+                self.rebuild_lists(t)
+                need_init = True
+            else:
+                raise SimulationError(f"event queue inconsistent at t={t!r} (an event time went backwards or NaN)")
+        e = self.kinetic_energy()
+        if not (math.isfinite(e) and e > 0):
+            raise SimulationError(f"kinetic energy {e!r} after a window")
+        pressure = 1.0 + abs(acc[0]) / (2.0 * e * t) if t > 0 else math.inf
+        temperature = 2.0 * e / (3.0 * self.n)
+        self.thermalise()
+        self.rho0 = self.rho0 + self.gamma * t
+        self.st[:, 6] = 0.0
+        h = ed.min_listed_ratio(self.st, self.nbr, self.nnb, self.box, self.rho0)
+        if h < 1.0 - AUDIT_TOLERANCE:
+            raise SimulationError(f"overlap {1.0 - h:.3e} (relative) after a window: an event was lost")
+        return WindowStats(
+            duration=t, pressure=pressure, temperature=temperature, collisions=int(counters[ed.C_COLLISIONS]),
+            events=int(counters[ed.C_EVENTS]), skin_events=int(counters[ed.C_SKIN]),
+            moves=int(counters[ed.C_MOVES]), null_collisions=int(counters[ed.C_NULL]),
+            list_rebuilds=self.list_rebuilds - rebuilds0, reached_target=reached,
+        )
+
+    # --- checkpoint state -----------------------------------------------------------------------------------
+    _ARRAYS = ("st", "refs", "nbr", "nnb", "head", "nxt", "prv", "cellof")
+
+    def state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        arrays = {f"engine_{k}": getattr(self, k) for k in self._ARRAYS}
+        attrs = {k: getattr(self, k) for k in ("rho0", "gamma", "rho_list", "skin", "m", "list_rebuilds")}
+        return arrays, attrs
+
+    def load_state(self, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> None:
+        for k in self._ARRAYS:
+            setattr(self, k, np.ascontiguousarray(arrays[f"engine_{k}"]))
+        self.rho0, self.gamma = float(attrs["rho0"]), float(attrs["gamma"])
+        self.rho_list, self.skin = float(attrs["rho_list"]), float(attrs["skin"])
+        self.m, self.list_rebuilds = int(attrs["m"]), int(attrs["list_rebuilds"])
+        self.scratch = np.zeros(max(self.nbr.shape[1], 64), dtype=np.int32)
+
+
+# --- shared driver of LS-type protocols (plain LS and MLS) -------------------------------------------------------
+
+
+def maxwell_velocities(n: int, temperature: float, rng: np.random.Generator) -> np.ndarray:
+    """Gaussian velocities (std sqrt(T) per component), zero total momentum, kinetic energy exactly (3/2) N T."""
+    v = rng.normal(0.0, math.sqrt(temperature), size=(n, 3))
+    v -= v.mean(axis=0)
+    v *= math.sqrt(1.5 * n * temperature / (0.5 * float(np.sum(v * v))))
+    return v
+
+
+def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time, temperature, checkpoint_interval,
+                    progress_interval) -> None:
+    require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a spherejam Packing")
+    require(packing.n >= 2, "N", packing.n, "must be >= 2")
+    require(packing.dim == 3, "dim", packing.dim, "the LS engine supports d = 3 only")
+    require(_finite(p_max) and p_max > 1, "p_max", p_max, "must be a finite number > 1")
+    require(isinstance(seed, (int, np.integer)) and seed >= 0, "seed", seed, "must be an integer >= 0")
+    require(isinstance(events_per_particle, (int, np.integer)) and events_per_particle >= 1,
+            "events_per_particle", events_per_particle, "must be an integer >= 1")
+    require(max_wall_time is None or (_finite(max_wall_time) and max_wall_time > 0), "max_wall_time",
+            max_wall_time, "must be None or a number > 0 (seconds)")
+    require(_finite(temperature) and temperature > 0, "temperature", temperature, "must be a finite number > 0")
+    require(_finite(checkpoint_interval) and checkpoint_interval >= 0, "checkpoint_interval", checkpoint_interval,
+            "must be a number >= 0 (seconds)")
+    require(_finite(progress_interval) and progress_interval >= 0, "progress_interval", progress_interval,
+            "must be a number >= 0 (seconds)")
+
+
+def _finite(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _fingerprint(packing: Packing, kind: str, params: dict[str, Any]) -> str:
+    h = hashlib.sha256()
+    h.update(kind.encode())
+    h.update(np.ascontiguousarray(packing.positions).tobytes())
+    h.update(np.ascontiguousarray(packing.diameters).tobytes())
+    h.update(repr(float(packing.box)).encode())
+    h.update(repr(sorted(params.items())).encode())
+    return h.hexdigest()
+
+
+class Controller:
+    """Decides the compression rate window by window (plain LS: constant rate, stop at p >= p_max)."""
+
+    kind = CHECKPOINT_KIND_LS
+    extra_columns: tuple[str, ...] = ()
+
+    def __init__(self, rate: float, p_max: float):
+        self.rate = float(rate)
+        self.p_max = float(p_max)
+
+    def after_window(self, stats: WindowStats) -> str | None:
+        """Update the rate after a window; return a stop reason or None."""
+        return "p_max" if stats.pressure >= self.p_max else None
+
+    def extra_row(self) -> dict[str, Any]:
+        return {}
+
+    def state(self) -> dict[str, Any]:
+        return {"rate": self.rate}
+
+    def load(self, state: dict[str, Any]) -> None:
+        self.rate = float(state["rate"])
+
+    def counters(self) -> dict[str, Any]:
+        return {}
+
+
+def drive(packing: Packing, controller: Controller, *, algorithm: str, parameters: dict[str, Any], seed: int,
+          events_per_particle: int, count_collisions_only: bool, temperature: float, target_phi: float | None,
+          max_collisions: int | None, max_wall_time: float | None, checkpoint, checkpoint_interval: float,
+          progress_interval: float, callback: Callable[[int, WindowStats], None] | None = None,
+          engine_options: dict[str, Any] | None = None) -> RunResult:
+    """Run windows under ``controller`` from ``packing`` (or resume from ``checkpoint``) and audit the result."""
+    wall0 = time.perf_counter()
+    n = packing.n
+    nominal = packing.diameters / packing.diameters.mean()
+    phi_nominal = float(np.sum(ball_volume(nominal, 3)) / packing.box**3)
+    rho_target = None if target_phi is None else (target_phi / phi_nominal) ** (1.0 / 3.0)
+    budget_free = {k: v for k, v in parameters.items()
+                   if k not in ("max_wall_time", "max_collisions", "checkpoint_interval", "progress_interval")}
+    fingerprint = _fingerprint(packing, controller.kind, budget_free)
+
+    history = History()
+    totals = {"collisions": 0, "events": 0, "windows": 0, "skin_events": 0, "moves": 0, "null_collisions": 0,
+              "list_rebuilds": 0}
+    wall_before = 0.0
+    rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
+    ckpt = Path(checkpoint) if checkpoint is not None else None
+    resumed = False
+    if ckpt is not None and ckpt.exists():
+        arrays, attrs = load_checkpoint(ckpt, controller.kind)
+        if attrs.get("fingerprint") != fingerprint:
+            raise PackingFileError(f"{ckpt}: checkpoint belongs to a different input or parameters; delete it")
+        engine = LSEngine.__new__(LSEngine)
+        _init_bare(engine, n, packing.box, temperature, engine_options)
+        engine.load_state(arrays, attrs["engine"])
+        controller.load(attrs["controller"])
+        history = History({k[len("history_"):]: v for k, v in arrays.items() if k.startswith("history_")})
+        totals = dict(attrs["totals"])
+        wall_before = float(attrs["wall_time"])
+        rng.bit_generator.state = attrs["rng_state"]
+        phi_initial = float(attrs["phi_initial"])
+        resumed = True
+    else:
+        rho = closest_pair(packing.positions, nominal, packing.box)[2]
+        velocities = maxwell_velocities(n, temperature, rng)
+        engine = LSEngine(packing.positions, nominal, packing.box, rho, velocities, controller.rate, temperature,
+                          **(engine_options or {}))
+        phi_initial = phi_nominal * rho**3
+
+    progress = Progress(algorithm, progress_interval)
+    last_ckpt = time.perf_counter()
+    target = int(events_per_particle) * n
+    stop = None
+    if rho_target is not None and engine.rho0 >= rho_target:
+        stop = "target_phi"
+    last_pressure = float(history.last("pressure", math.nan))
+    while stop is None:
+        engine.gamma = controller.rate
+        rate = controller.rate
+        stats = engine.window(target, count_collisions_only, rho_target)
+        for key, value in (("collisions", stats.collisions), ("events", stats.events),
+                           ("skin_events", stats.skin_events), ("moves", stats.moves),
+                           ("null_collisions", stats.null_collisions), ("list_rebuilds", stats.list_rebuilds)):
+            totals[key] += value
+        totals["windows"] += 1
+        wall = wall_before + time.perf_counter() - wall0
+        phi = phi_nominal * engine.rho0**3
+        last_pressure = stats.pressure
+        row = {"window": totals["windows"], "phi": phi, "pressure": stats.pressure, "rate": rate,
+               "collisions": stats.collisions, "events": stats.events, "duration": stats.duration,
+               "temperature": stats.temperature, "wall_time": wall}
+        row.update(controller.extra_row())
+        history.append(**row)
+        stop = controller.after_window(stats)
+        if stop is None and stats.reached_target:
+            stop = "target_phi"
+        if stop is None and max_collisions is not None and totals["collisions"] >= max_collisions:
+            stop = "max_collisions"
+        if stop is None and max_wall_time is not None and wall >= max_wall_time:
+            stop = "max_wall_time"
+        progress.update(
+            f"window {totals['windows']}: phi={phi:.6f} p={stats.pressure:.4g} rate={rate:.4g} "
+            f"collisions={totals['collisions']:,} ({totals['collisions'] / max(wall, 1e-9):,.0f}/s)"
+            + (f" stop={stop}" if stop else "")
+        )
+        if callback is not None:
+            callback(totals["windows"], stats)
+        if ckpt is not None and (stop is None or stop == "max_wall_time") and (
+            time.perf_counter() - last_ckpt >= checkpoint_interval or stop == "max_wall_time"
+        ):
+            e_arrays, e_attrs = engine.state()
+            arrays = dict(e_arrays)
+            arrays.update({f"history_{k}": v for k, v in history.as_arrays().items()})
+            attrs = {"fingerprint": fingerprint, "engine": e_attrs, "controller": controller.state(),
+                     "totals": totals, "wall_time": wall, "rng_state": rng.bit_generator.state,
+                     "phi_initial": phi_initial}
+            save_checkpoint(ckpt, controller.kind, arrays, attrs)
+            last_ckpt = time.perf_counter()
+
+    wall = wall_before + time.perf_counter() - wall0
+    phi_final = phi_nominal * engine.rho0**3
+    counters = dict(totals)
+    counters.update({"wall_time": wall, "stop_reason": stop, "phi_initial": phi_initial, "phi_final": phi_final,
+                     "resumed": resumed})
+    counters.update(controller.counters())
+    metadata = dict(packing.metadata)
+    metadata.pop("provenance", None)
+    metadata.update({
+        "algorithm": algorithm,
+        "seed": int(seed),
+        "parameters": dict(parameters, input_seed=packing.metadata.get("seed"),
+                           input_algorithm=packing.metadata.get("algorithm")),
+        "reduced_pressure": last_pressure,
+        "counters": counters,
+    })
+    result = Packing(engine.positions.copy(), engine.rho0 * engine.nominal, packing.box, metadata)
+    report = result.check(AUDIT_TOLERANCE)
+    if not report.ok:
+        raise SimulationError(f"{algorithm}: final audit failed, the result is discarded: {report}")
+    if ckpt is not None and stop != "max_wall_time" and ckpt.exists():
+        os.remove(ckpt)
+    progress.update(f"done: phi={phi_final:.6f} p={last_pressure:.4g} windows={totals['windows']} "
+                    f"collisions={totals['collisions']:,} wall={wall:.1f} s ({stop})", force=True)
+    return RunResult(packing=result, history=history.as_arrays(), counters=counters, wall_time=wall)
+
+
+def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options: dict[str, Any] | None) -> None:
+    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0}
+    opts.update(options or {})
+    engine.n, engine.box, engine.temperature = n, float(box), float(temperature)
+    engine.skin_fraction = float(opts["skin_fraction"])
+    engine.list_margin = float(opts["list_margin"])
+    engine.dilute_neighbours = float(opts["dilute_neighbours"])
+    engine.ev_time = np.zeros(n)
+    engine.ev_type = np.zeros(n, dtype=np.int8)
+    engine.ev_partner = np.full(n, -1, dtype=np.int32)
+    engine.heap = np.zeros(n, dtype=np.int32)
+    engine.hpos = np.zeros(n, dtype=np.int32)
+
+
+def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0, target_phi: float | None = None,
+           max_collisions: int | None = None, max_wall_time: float | None = None, events_per_particle: int = 20,
+           count_collisions_only: bool = False, temperature: float = DEFAULT_TEMPERATURE, checkpoint=None,
+           checkpoint_interval: float = 300.0, progress_interval: float = 10.0,
+           callback: Callable[[int, WindowStats], None] | None = None,
+           engine_options: dict[str, Any] | None = None) -> RunResult:
+    """Compress ``packing`` with the Lubachevsky–Stillinger algorithm.
+
+    Parameters
+    ----------
+    packing : Packing
+        Start configuration (d = 3, any density, any polydispersity); its diameters are rescaled so that the
+        closest pair touches.
+    rate : float
+        Compression rate gamma = d rho / dt >= 0 (the paper's gamma; diameters grow by gamma D_i0 per unit time,
+        time unit = mean nominal diameter / sqrt(k_B T / m) with T = 0.2, i.e. m = k_B = 1).
+    p_max : float
+        Stop at the first window whose reduced pressure p = PV/(N k_B T) reaches p_max (> 1).
+    seed : int
+        Seed of the initial Maxwell–Boltzmann velocities; same input and seed give identical output.
+    target_phi, max_collisions, max_wall_time :
+        Optional further stops: packing fraction reached, total collisions, wall seconds.
+    events_per_particle : int
+        Window length in events (or collisions) per particle (20 in the paper).
+    count_collisions_only : bool
+        Count only collisions towards the window length (the paper's wording) instead of all events (the
+        reference code: collisions, re-predictions and neighbour-list updates). Near jamming they nearly agree.
+    temperature : float
+        Thermostat temperature T (0.2).
+    checkpoint : path or None
+        If given, the full state is saved there every ``checkpoint_interval`` wall seconds (at window ends) and a
+        run started with an existing matching checkpoint resumes from it. The file is removed when the run
+        finishes, except after a ``max_wall_time`` stop (so a later call can continue).
+    callback : callable(window_index, WindowStats) or None
+        Called after every window (e.g. for monitoring; an exception aborts the run, keeping the checkpoint).
+    engine_options : dict or None
+        Tuning of the neighbour lists (``skin_fraction``, ``list_margin``, ``dilute_neighbours``); no effect on
+        the physics.
+
+    Returns
+    -------
+    RunResult
+        Packing with actual diameters (metadata ``algorithm="ls"``), per-window history (``window, phi, pressure,
+        rate, collisions, events, duration, temperature, wall_time``; counts per window, wall time cumulative) and
+        counters (totals, ``stop_reason``, ``phi_initial``, ``phi_final``, ``wall_time``).
+    """
+    validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
+                    max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
+                    progress_interval=progress_interval)
+    require(_finite(rate) and rate >= 0, "rate", rate, "must be a finite number >= 0")
+    require(target_phi is None or (_finite(target_phi) and 0 < target_phi < 1), "target_phi", target_phi,
+            "must be None or in (0, 1)")
+    require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
+            "max_collisions", max_collisions, "must be None or an integer >= 1")
+    if rate == 0 and target_phi is not None:
+        raise InputError(f"target_phi={target_phi!r}: cannot be reached at rate=0")
+    parameters = {
+        "rate": float(rate), "p_max": float(p_max), "seed": int(seed), "target_phi": target_phi,
+        "max_collisions": max_collisions, "max_wall_time": max_wall_time,
+        "events_per_particle": int(events_per_particle), "count_collisions_only": bool(count_collisions_only),
+        "temperature": float(temperature),
+    }
+    return drive(packing, Controller(rate, p_max), algorithm="ls", parameters=parameters, seed=seed,
+                 events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
+                 temperature=temperature, target_phi=target_phi, max_collisions=max_collisions,
+                 max_wall_time=max_wall_time, checkpoint=checkpoint, checkpoint_interval=checkpoint_interval,
+                 progress_interval=progress_interval, callback=callback, engine_options=engine_options)
