@@ -87,7 +87,7 @@ def scan_grid(pressure: float | None) -> np.ndarray:
     lo = MIN_SCAN_GAP if pressure is None else 10.0 / pressure
     lo = min(max(lo, MIN_SCAN_GAP), MAX_SCAN_GAP / 10.0)  # an unjammed packing (p < 1e4) still gets a decade
     decades = math.log10(MAX_SCAN_GAP / lo)
-    return np.logspace(math.log10(lo), math.log10(MAX_SCAN_GAP), int(round(decades * SCAN_POINTS_PER_DECADE)) + 1)
+    return np.logspace(math.log10(lo), math.log10(MAX_SCAN_GAP), round(decades * SCAN_POINTS_PER_DECADE) + 1)
 
 
 def choose_tolerance(gaps: np.ndarray, pressure: float | None = None) -> float:
@@ -201,7 +201,7 @@ def _coordination(n, dim, tolerance, pair_i, pair_j, rattler) -> Coordination:
     k0 = dim * (n_nr - 1) + 1 if n_nr > 0 else 0
     return Coordination(
         contact_tolerance=float(tolerance),
-        n_contacts=int(len(pair_i)),
+        n_contacts=len(pair_i),
         z_mean=2.0 * len(pair_i) / n,
         n_nonrattlers=n_nr,
         n_contacts_nonrattler=k_nr,

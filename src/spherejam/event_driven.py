@@ -52,61 +52,65 @@ _INF = np.inf
 
 
 @njit(cache=True, inline="always")
-def _sift_up(heap, hpos, key, k):
-    i = heap[k]
-    ki = key[i]
+def _sift_up(heap, hpos, hkey, k, i, ki):
+    """Place particle i with key ki at hole k, moving it towards the root."""
     while k > 0:
         parent = (k - 1) >> 1
-        p = heap[parent]
-        if key[p] <= ki:
+        if hkey[parent] <= ki:
             break
+        p = heap[parent]
         heap[k] = p
+        hkey[k] = hkey[parent]
         hpos[p] = k
         k = parent
     heap[k] = i
+    hkey[k] = ki
     hpos[i] = k
 
 
 @njit(cache=True, inline="always")
-def _sift_down(heap, hpos, key, k, n):
-    i = heap[k]
-    ki = key[i]
+def _sift_down(heap, hpos, hkey, k, i, ki, n):
+    """Place particle i with key ki at hole k, moving it towards the leaves."""
     while True:
         c = 2 * k + 1
         if c >= n:
             break
-        cv = key[heap[c]]
+        cv = hkey[c]
         if c + 1 < n:
-            cv2 = key[heap[c + 1]]
+            cv2 = hkey[c + 1]
             if cv2 < cv:
                 c += 1
                 cv = cv2
         if ki <= cv:
             break
-        heap[k] = heap[c]
-        hpos[heap[c]] = k
+        p = heap[c]
+        heap[k] = p
+        hkey[k] = cv
+        hpos[p] = k
         k = c
     heap[k] = i
+    hkey[k] = ki
     hpos[i] = k
 
 
 @njit(cache=True, inline="always")
-def heap_update(heap, hpos, key, i, n):
-    """Restore the heap after key[i] changed (either direction)."""
+def heap_update(heap, hpos, hkey, i, ki, n):
+    """Give particle i the key ki and restore the heap (keys are stored in heap order: no indirection)."""
     k = hpos[i]
-    if k > 0 and key[heap[(k - 1) >> 1]] > key[i]:
-        _sift_up(heap, hpos, key, k)
+    if k > 0 and hkey[(k - 1) >> 1] > ki:
+        _sift_up(heap, hpos, hkey, k, i, ki)
     else:
-        _sift_down(heap, hpos, key, k, n)
+        _sift_down(heap, hpos, hkey, k, i, ki, n)
 
 
 @njit(cache=True)
-def heap_build(heap, hpos, key, n):
+def heap_build(heap, hpos, hkey, key, n):
     for k in range(n):
         heap[k] = k
+        hkey[k] = key[k]
         hpos[k] = k
     for k in range(n // 2 - 1, -1, -1):
-        _sift_down(heap, hpos, key, k, n)
+        _sift_down(heap, hpos, hkey, k, heap[k], hkey[k], n)
 
 
 # --- pair kinematics -------------------------------------------------------------------------------------------
@@ -374,7 +378,7 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 
 @njit(cache=True)
-def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin,
+def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
              update_heap):
     """Schedule particle i's next event at time t (its own current event is released first)."""
     n = st.shape[0]
@@ -408,7 +412,17 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
         rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
         ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
         rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
-        tau = collision_delay(rx, ry, rz, ux, uy, uz, 0.5 * (di + st[j, 7]), rho, gamma)
+        sig = 0.5 * (di + st[j, 7])
+        s2 = sig * sig
+        b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
+        a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+        if b >= 0.0 and a >= 0.0:  # receding in the frame of the growing surfaces
+            continue
+        # for a >= 0 and b < 0 the root is >= c / (-2 b): skip the sqrt and division when it cannot win
+        c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
+        if a >= 0.0 and c > 0.0 and c > -2.0 * b * (min(best, ev_time[j]) - t):
+            continue
+        tau = collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma)
         if tau < _INF:
             tc = t + tau
             if tc < best and tc <= ev_time[j]:
@@ -419,7 +433,7 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
     ev_type[i] = best_type
     ev_partner[i] = best_j
     if update_heap:
-        heap_update(heap, hpos, ev_time, i, n)
+        heap_update(heap, hpos, hkey, i, best, n)
     if best_type == COLLISION:
         j = best_j
         if ev_type[j] == COLLISION:
@@ -431,11 +445,11 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
         ev_type[j] = COLLISION
         ev_partner[j] = i
         if update_heap:
-            _sift_up(heap, hpos, ev_time, hpos[j])
+            _sift_up(heap, hpos, hkey, hpos[j], j, best)
 
 
 @njit(cache=True)
-def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin):
+def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin):
     """Predict every particle's event from scratch (all synchronised at t) and build the heap."""
     n = st.shape[0]
     for i in range(n):
@@ -443,12 +457,12 @@ def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb,
         ev_type[i] = MOVE
         ev_partner[i] = -1
     for i in range(n):
-        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, False)
-    heap_build(heap, hpos, ev_time, n)
+        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, False)
+    heap_build(heap, hpos, hkey, ev_time, n)
 
 
 @njit(cache=True)
-def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
+def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
                rho0, gamma, rho_list, skin, t, target, count_collisions, t_horizon, counters, acc):
     """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
 
@@ -459,7 +473,7 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, hea
     half = 0.5 * box
     while True:
         i = heap[0]
-        te = ev_time[i]
+        te = hkey[0]
         if te > t_horizon:
             sync_all(st, t_horizon)
             return HORIZON, t_horizon
@@ -471,7 +485,7 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, hea
             if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
                 return OVERFLOW, t
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -502,11 +516,11 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, hea
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
-            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
         else:
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         done = counters[C_COLLISIONS] if count_collisions else counters[C_EVENTS]

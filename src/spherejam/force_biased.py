@@ -42,7 +42,7 @@ from numba import njit
 
 from . import neighbours
 from .checkpoint import load_checkpoint, save_checkpoint
-from .errors import InputError, PackingFileError, SimulationError, require
+from .errors import PackingFileError, SimulationError, require
 from .neighbours import cell_sort
 from .packing import Packing, ball_volume
 from .runs import Progress, RunResult
@@ -54,7 +54,7 @@ FORCE_SCALING = 0.5
 #: The paper's nominal-density rule: a line in the (ln gamma, phi_nominal) plane through these two points.
 RULE_POINTS = ((1e-3, 0.6), (1e-7, 0.7))
 #: Verlet skin, in units of the mean nominal diameter.
-SKIN = 0.3
+SKIN = 0.7
 #: Cells fit the outer sphere of this diameter quantile; larger spheres scan more cells.
 CELL_QUANTILE = 0.9
 #: The history keeps at most 2 * this many rows; beyond, every other row is dropped and the stride doubles.
@@ -97,93 +97,131 @@ def _fold(dx, box, half):
     return dx
 
 
+@njit(cache=True, inline="always")
+def _scan_cell(ps, ds, order, begin, end, a, i, shift, fold, box, rho_out, skin, pairs, count):
+    """Append to ``pairs`` the pairs of sphere a (index i) with the spheres begin..end-1 of one cell, kept if sphere
+    a is the larger one (ties: the lower index); False if ``pairs`` is full."""
+    dim = ps.shape[1]
+    half = 0.5 * box
+    di = ds[a]
+    cap = pairs.shape[1]
+    for b in range(begin, end):
+        dj = ds[b]
+        j = order[b]
+        if dj > di or (dj == di and j <= i):
+            continue
+        r2 = 0.0
+        for q in range(dim):
+            dx = ps[b, q] + shift[q] - ps[a, q]
+            if fold:
+                dx = _fold(dx, box, half)
+            r2 += dx * dx
+        cut = rho_out * 0.5 * (di + dj) + skin
+        if r2 < cut * cut:
+            k = count[0]
+            if k == cap:
+                return False
+            pairs[0, k] = min(i, j)
+            pairs[1, k] = max(i, j)
+            count[0] = k + 1
+    return True
+
+
 @njit(cache=True)
-def _build_verlet(positions, diameters, box, rho_out, skin, m):
+def _neighbour_cell_shift(coords, offset, m, box, shift):
+    """Index of the cell at ``coords + offset`` (periodic) and the image shift of its spheres."""
+    cn = 0
+    stride = 1
+    for q in range(coords.shape[0]):
+        cq = coords[q] + offset[q]
+        shift[q] = 0.0
+        if cq < 0:
+            cq += m
+            shift[q] = -box
+        elif cq >= m:
+            cq -= m
+            shift[q] = box
+        cn += cq * stride
+        stride *= m
+    return cn
+
+
+@njit(cache=True)
+def _build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
     """CSR half list (row i holds j > i, ascending) of all pairs with r_ij < rho_out D_ij + skin.
 
-    Each pair is found from its larger sphere, which scans the cells within rho_out D_i + skin: cells can then be
-    sized for typical spheres, and only the few large ones of a polydisperse packing scan a wider stencil.
+    Each pair is found from its larger sphere, which scans the cells within rho_out D_i + skin. Cells are sized
+    for typical spheres, which scan the 3^d adjacent cells (cell by cell, so the periodic image of a neighbour
+    cell is a known shift); the few larger spheres of a polydisperse packing scan a wider stencil.
+    Returns empty arrays if more than ``capacity`` pairs are found (retry with a larger one).
     """
     n, dim = positions.shape
-    half = 0.5 * box
     side = box / m
     cell, start, order = cell_sort(positions, box, m)
     ps = np.empty((n, dim))  # positions and diameters in cell order, for locality
     ds = np.empty(n)
+    stencil = np.empty(n, dtype=np.int64)  # half-width of each sphere's stencil, in cells
     for a in range(n):
-        ps[a] = positions[order[a]]
+        for q in range(dim):
+            ps[a, q] = positions[order[a], q]
         ds[a] = diameters[order[a]]
-    cap = 8 * n + 64
-    lo = np.empty(cap, dtype=np.int64)
-    hi = np.empty(cap, dtype=np.int64)
-    k = 0
-    ci = np.empty(dim, dtype=np.int64)
-    width = np.empty(dim, dtype=np.int64)
-    base = np.empty(dim, dtype=np.int64)
-    digit = np.empty(dim, dtype=np.int64)
-    for a in range(n):
-        i = order[a]
-        di = ds[a]
-        c = cell[i]
-        for q in range(dim):
-            ci[q] = c % m
-            c //= m
-        w = int(np.ceil((rho_out * di + skin) / side))
-        for q in range(dim):
-            if 2 * w + 1 >= m:  # the stencil wraps onto itself: scan the whole row once
-                base[q] = 0
-                width[q] = m
-            else:
-                base[q] = ci[q] - w + m
-                width[q] = 2 * w + 1
-            digit[q] = 0
-        while True:
-            cn = 0
-            stride = 1
+        stencil[a] = int(np.ceil((rho_out * ds[a] + skin) / side))
+    pairs = np.empty((2, capacity), dtype=np.int64)  # appended in scan order: sequential writes
+    count = np.zeros(1, dtype=np.int64)
+    coords = np.empty(dim, dtype=np.int64)
+    offset = np.empty(dim, dtype=np.int64)
+    shift = np.empty(dim)
+    failed = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+    # spheres with a one-cell stencil, cell pair by cell pair
+    if m >= 3:
+        for c in range(m**dim):
+            rem = c
             for q in range(dim):
-                cn += ((base[q] + digit[q]) % m) * stride
-                stride *= m
-            for b in range(start[cn], start[cn + 1]):
-                dj = ds[b]
-                j = order[b]
-                if dj > di or (dj == di and j <= i):
-                    continue
-                r2 = 0.0
+                coords[q] = rem % m
+                rem //= m
+            for o in range(3**dim):
+                rem = o
                 for q in range(dim):
-                    dx = _fold(ps[b, q] - ps[a, q], box, half)
-                    r2 += dx * dx
-                cut = rho_out * 0.5 * (di + dj) + skin
-                if r2 < cut * cut:
-                    if k == cap:
-                        cap *= 2
-                        lo2 = np.empty(cap, dtype=np.int64)
-                        hi2 = np.empty(cap, dtype=np.int64)
-                        lo2[:k] = lo[:k]
-                        hi2[:k] = hi[:k]
-                        lo, hi = lo2, hi2
-                    lo[k] = min(i, j)
-                    hi[k] = max(i, j)
-                    k += 1
-            q = 0
-            while q < dim:  # next cell of the stencil (odometer)
-                digit[q] += 1
-                if digit[q] < width[q]:
-                    break
-                digit[q] = 0
-                q += 1
-            if q == dim:
-                break
-    # rows sorted by index: the force sums then do not depend on when or how the list was built
+                    offset[q] = rem % 3 - 1
+                    rem //= 3
+                cn = _neighbour_cell_shift(coords, offset, m, box, shift)
+                for a in range(start[c], start[c + 1]):
+                    if stencil[a] == 1 and not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a],
+                                                          shift, False, box, rho_out, skin, pairs, count):
+                        return failed
+    # the others, sphere by sphere over a (2w+1)^d stencil; one that wraps onto itself scans every cell once
+    for a in range(n):
+        w = stencil[a]
+        if w == 1 and m >= 3:
+            continue
+        fold = 2 * w + 1 > m
+        c = cell[order[a]]
+        for q in range(dim):
+            coords[q] = c % m
+            c //= m
+        span = m if fold else 2 * w + 1
+        for o in range(span**dim):
+            rem = o
+            for q in range(dim):
+                offset[q] = (rem % span - coords[q]) if fold else (rem % span - w)
+                rem //= span
+            cn = _neighbour_cell_shift(coords, offset, m, box, shift)
+            if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, fold, box, rho_out,
+                              skin, pairs, count):
+                return failed
+    # CSR by the lower index, each row sorted: the force sums then do not depend on when or how the list was built
+    k = count[0]
     row = np.zeros(n + 1, dtype=np.int64)
     for p in range(k):
-        row[lo[p] + 1] += 1
+        row[pairs[0, p] + 1] += 1
     for i in range(n):
         row[i + 1] += row[i]
     fill = row[:-1].copy()
     nbr = np.empty(k, dtype=np.int64)
     for p in range(k):
-        nbr[fill[lo[p]]] = hi[p]
-        fill[lo[p]] += 1
+        i = pairs[0, p]
+        nbr[fill[i]] = pairs[1, p]
+        fill[i] += 1
     for i in range(n):
         for p in range(row[i] + 1, row[i + 1]):
             v = nbr[p]
@@ -213,14 +251,25 @@ def _forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
                 r2 += dx[a] * dx[a]
             dij = 0.5 * (di + diameters[j])
             h2 = r2 / (dij * dij)
-            if h2 < hmin2:
-                hmin2 = h2
+            hmin2 = min(hmin2, h2)
             if h2 < rho2 and r2 > 0.0:
                 f = di * diameters[j] * (1.0 - h2 / rho2) / np.sqrt(r2)
                 for a in range(dim):
                     forces[i, a] += f * dx[a]
                     forces[j, a] -= f * dx[a]
     return np.sqrt(hmin2)
+
+
+@njit(cache=True)
+def _pair_ratio(positions, diameters, box, i, j):
+    """r_ij / D_ij, computed with the same operations as in :func:`_forces`."""
+    half = 0.5 * box
+    r2 = 0.0
+    for a in range(positions.shape[1]):
+        dx = _fold(positions[i, a] - positions[j, a], box, half)
+        r2 += dx * dx
+    dij = 0.5 * (diameters[i] + diameters[j])
+    return np.sqrt(r2 / (dij * dij))
 
 
 @njit(cache=True)
@@ -240,8 +289,7 @@ def _move(positions, diameters, box, forces, prefactor, drift):
             positions[i, a] = x
             drift[i, a] += step
             d2 += drift[i, a] * drift[i, a]
-        if d2 > max2:
-            max2 = d2
+        max2 = max(max2, d2)
     return np.sqrt(max2)
 
 
@@ -260,6 +308,9 @@ class _Neighbours:
         self.skin = SKIN * float(np.mean(diameters))
         typical = float(np.quantile(diameters, CELL_QUANTILE))
         self.m = neighbours.cells_per_side(box, rho_out * typical + self.skin, dim, n)
+        self.capacity = 32 * n
+        self.max_diameter = float(diameters.max())
+        self.rho_built = rho_out
         self.drift = np.zeros_like(positions)
         self.rebuilds = 0
         self.start = self.list = None
@@ -267,11 +318,21 @@ class _Neighbours:
 
     def refresh(self, positions, diameters, box, rho_out):
         """Rebuild if two spheres may have approached by more than the skin since the last build."""
-        if 2.0 * self.max_drift >= self.skin:
-            self.start, self.list = _build_verlet(positions, diameters, box, rho_out, self.skin, self.m)
+        if self.start is None or 2.0 * self.max_drift >= self.skin:
+            while True:
+                self.start, self.list = _build_verlet(positions, diameters, box, rho_out, self.skin, self.m,
+                                                      self.capacity)
+                if len(self.start):
+                    break
+                self.capacity *= 2  # more pairs than room: retry (rare; the list itself is the same)
             self.drift[:] = 0.0
             self.max_drift = 0.0
             self.rebuilds += 1
+            self.rho_built = rho_out
+
+    def exact_below(self):
+        """A pair missing from the list has r_ij / D_ij above this bound, so a list minimum below it is exact."""
+        return self.rho_built + (self.skin - 2.0 * self.max_drift) / self.max_diameter
 
 
 def _input_fingerprint(packing: Packing) -> str:
@@ -434,8 +495,9 @@ def run_fb(
         """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
         nb.refresh(positions, nominal, box, rho_out)
         h = _forces(positions, nominal, box, rho_out, nb.start, nb.list, forces, dx)
-        if not h < rho_out:  # no outer overlap left: rho_in lies beyond the list, find it exactly
-            h = neighbours.closest_pair(positions, nominal, box)[2]
+        if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
+            i, j, _ = neighbours.closest_pair(positions, nominal, box)
+            h = _pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in _forces
         if not math.isfinite(h) or not np.all(np.isfinite(forces)):
             raise SimulationError(f"FB iteration {iteration}: non-finite forces or inner ratio ({h!r})")
         return h

@@ -109,6 +109,7 @@ class LSEngine:
         self.ev_partner = np.full(n, -1, dtype=np.int32)
         self.heap = np.zeros(n, dtype=np.int32)
         self.hpos = np.zeros(n, dtype=np.int32)
+        self.hkey = np.zeros(n)
         self.list_rebuilds = 0
         self.refs = None  # set by rebuild_lists
         self.rebuild_lists(0.0)
@@ -203,9 +204,9 @@ class LSEngine:
             horizon = min(t_list, t_target)
             if need_init:
                 ed.init_events(t, self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap,
-                               self.hpos, self.nbr, self.nnb, self.box, self.rho0, g, self.skin)
+                               self.hpos, self.hkey, self.nbr, self.nnb, self.box, self.rho0, g, self.skin)
             status, t = ed.run_events(
-                self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.nbr,
+                self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.hkey, self.nbr,
                 self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m, self.rho0, g,
                 self.rho_list, self.skin, t, target, count_collisions, horizon, counters, acc,
             )
@@ -459,6 +460,7 @@ def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options
     engine.ev_partner = np.full(n, -1, dtype=np.int32)
     engine.heap = np.zeros(n, dtype=np.int32)
     engine.hpos = np.zeros(n, dtype=np.int32)
+    engine.hkey = np.zeros(n)
 
 
 def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0, target_phi: float | None = None,

@@ -84,7 +84,7 @@ def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
     return i, j, d
 
 
-def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF):  # noqa: E741 (Steinhardt's l)
+def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF):
     """Steinhardt bond-orientational order of degree ``l`` (even), d = 3 (spec §6.4).
 
     Returns ``(q_global, q_local, q_per_particle, n_neighbours)``: q_global from <Y_lm> over all bonds; q(i) from
@@ -269,11 +269,11 @@ def voronoi_statistics(volumes: np.ndarray, diameters: np.ndarray) -> dict[str, 
     v = np.asarray(volumes, dtype=np.float64) / abar**3
     free = v - DODECAHEDRON_VOLUME * (np.asarray(diameters) / abar) ** 3
     mean_free, var_free = float(free.mean()), float(free.var())
-    if var_free > 0 and mean_free > 0:
+    if mean_free > 0 and math.sqrt(var_free) > 1e-12 * mean_free:  # else a perfect crystal (round-off spread)
         k = mean_free**2 / var_free
         theta = mean_free / k
         entropy = float(k + math.log(theta) + gammaln(k) + (1.0 - k) * digamma(k))
-    else:  # a perfect crystal: a delta distribution
+    else:
         k, entropy = math.inf, -math.inf
     return {
         "voronoi_volume_mean": float(v.mean()),
@@ -309,15 +309,51 @@ def pair_correlation(packing: Packing, r_max: float = 5.0, bins: int = 500) -> t
 
 
 @njit(cache=True)
-def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, out):
-    """out[s] = 1 if sample s lies farther than reach[i] from every centre i (minimum image), else 0."""
+def _covered_voxels(positions, reach, box, g):
+    """(g^3,) uint8 grid, 1 for voxels lying entirely inside one fattened sphere |y - x_i| < reach[i] (d = 3).
+
+    Most random points fall in such voxels and are classified in O(1); only the rest need the exact test.
+    """
+    h = box / g
+    half_diagonal = 0.5 * math.sqrt(3.0) * h
+    covered = np.zeros(g * g * g, dtype=np.uint8)
+    for i in range(positions.shape[0]):
+        r_in = reach[i] - half_diagonal  # voxel centre within r_in => whole voxel within reach
+        if r_in <= 0.0:
+            continue
+        x0, x1, x2 = positions[i, 0], positions[i, 1], positions[i, 2]
+        for a in range(math.floor((x0 - r_in) / h), math.floor((x0 + r_in) / h) + 1):
+            d0 = (a + 0.5) * h - x0
+            for b in range(math.floor((x1 - r_in) / h), math.floor((x1 + r_in) / h) + 1):
+                d1 = (b + 0.5) * h - x1
+                for c in range(math.floor((x2 - r_in) / h), math.floor((x2 + r_in) / h) + 1):
+                    d2 = (c + 0.5) * h - x2
+                    if d0 * d0 + d1 * d1 + d2 * d2 <= r_in * r_in:
+                        covered[((a % g) * g + (b % g)) * g + (c % g)] = 1
+    return covered
+
+
+@njit(cache=True)
+def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, covered, g, out):
+    """out[s] = 1 if sample s lies at least reach[i] from every centre i (minimum image), else 0.
+
+    ``covered`` (g^3 voxels, d = 3; g = 0 disables it) short-cuts points inside a fully covered voxel.
+    ``offsets`` should list the own cell first (the likeliest to hold a covering sphere).
+    """
     ns, dim = samples.shape
     noff = offsets.shape[0]
     for s in range(ns):
+        if g > 0:
+            v = 0
+            for k in range(3):
+                v = v * g + math.floor(samples[s, k] / box * g) % g
+            if covered[v]:
+                out[s] = 0
+                continue
         c = 0
         stride = 1
         for k in range(dim):
-            ck = int(np.floor(samples[s, k] / box * m)) % m
+            ck = math.floor(samples[s, k] / box * m) % m
             c += ck * stride
             stride *= m
         free = 1
@@ -357,7 +393,13 @@ def pore_size_entropy(
     reach = 0.5 * packing.diameters + threshold
     m = neighbours.cells_per_side(box, float(reach.max()), dim, n)
     offsets = neighbours.neighbour_offsets(dim, m)
+    offsets = offsets[np.argsort(np.abs(offsets).sum(axis=1), kind="stable")]  # own cell first
     cell, start, order = neighbours.cell_sort(packing.positions, box, m)
+    if dim == 3:  # voxels of side ~ min reach / 6, at most 256^3 of them
+        g = int(min(256, max(1, math.ceil(6.0 * box / float(reach.min())))))
+        covered = _covered_voxels(packing.positions, reach, box, g)
+    else:
+        g, covered = 0, np.zeros(1, dtype=np.uint8)
     rng = rng_for(seed)
     chunk = 100 * PORE_CHECK_EVERY
     target = int(samples) if samples is not None else PORE_MAX_SAMPLES
@@ -366,7 +408,7 @@ def pore_size_entropy(
         size = min(chunk, target - drawn)
         y = rng.random((size, dim)) * box
         hits = np.empty(size, dtype=np.uint8)
-        _uncovered(y, packing.positions, reach, box, m, offsets, cell, start, order, hits)
+        _uncovered(y, packing.positions, reach, box, m, offsets, cell, start, order, covered, g, hits)
         if samples is not None:
             found += int(hits.sum())
             drawn += size

@@ -1,0 +1,927 @@
+"""CALiPPSO: jam a hard-sphere packing by iterative linear programming, with contact forces from the LP duals.
+
+Artiaco, Díaz Hernández Rojas, Parisi, Ricci-Tersenghi, Phys. Rev. E 106, 055310 (2022); the rules below follow the
+reference code CALiPPSO.jl v0.2.2 as summarised in ``shared/reference/calippso.md`` (cited as "spec §x").
+
+**One iteration** solves, with HiGHS (interior point + crossover, so the duals come from a vertex and are exact),
+
+    maximise Gamma  subject to  |r_ij|^2 + 2 r_ij . (s_i - s_j) >= Gamma sigma_ij^2   for pairs with r_ij < l,
+                                -s_bound <= s_{i,mu} <= s_bound,   s_pinned = 0,   1 <= Gamma <= Gamma_max,
+
+then moves r_i <- r_i + s_i and inflates every diameter by sqrt(Gamma). Lengths inside are in units of the
+*initial* largest diameter; ``R`` below is the current largest radius. It stops when sqrt(Gamma) - 1 <=
+``gamma_tolerance`` and max |s_{i,mu}| over non-rattlers <= ``displacement_tolerance`` * (current largest diameter).
+
+**Cutoff l and bound s_bound** (spec §1.3), chosen from sqrt(Gamma) - 1 of the previous LP:
+regime 1 (> 5e-4): l = l0, s_bound = (l/2 - max(1.5, sqrt(Gamma_prev)) R)/sqrt(d); regime 2 (> 1e-5): l = min(4R, l0),
+s_bound = 0.1R; regime 3: l = min(2.7R, l0), s_bound = 0.01R. Deviations, all for safety or speed:
+
+* ``Gamma_max`` = ((l - 2 sqrt(d) s_bound) / 2R)^2 bounds Gamma. A pair outside l (or a non-minimum image, as
+  l <= L/2) can approach by at most 2 sqrt(d) s_bound, so with this bound *no* pair can overlap after the step --
+  a proof where the reference has a heuristic. The bound is never active near convergence.
+* l is enlarged (never s_bound driven <= 0) when regime 1 would give s_bound < 0.1 R / sqrt(d), and in regimes 2-3
+  when l0 has fallen below the needed margin; l is capped at L/2 (an error if the box is then too small).
+* The first iteration's sqrt(Gamma_prev) (the reference's fixed 1.01, always regime 1) is by default estimated as
+  1 + the median over particles of the nearest-neighbour gap h = r/sigma - 1, so a compressed start (e.g. LS at
+  p >= 1e5) begins in regime 2 or 3 with a small LP instead of a 4R cutoff.
+* The pinned particle (removing the d translations) is moved off a particle that the LP finds to be a rattler;
+  otherwise a free rigid translation of the stable network would stall the displacement test.
+* After each step the closest pair at the new positions is checked; if round-off in the solver left it overlapping,
+  sqrt(Gamma) is reduced so that it just touches (recorded as ``overlap_correction``; more than 1e-8 is an error).
+
+**Forces.** With lambda_ij >= 0 the dual of pair row ij, KKT gives sum_ij lambda_ij sigma_ij^2 = 1 and, for a
+particle whose bounds are not active, sum_j lambda_ij r_ij = 0: the contact force on i from j is
+f_ij ∝ lambda_ij r_ij. A pair is a contact iff lambda_ij sigma_ij^2 > ``zero_force`` / N (scale free: the shares
+sum to 1 over ~dN/2 contacts). Rattlers: particles outside the (d+1)-core of the contact graph (iterated).
+After convergence one more LP with s unbounded (|s| <= R only, so it stays bounded) and Gamma free is solved at the
+final positions without moving anything (spec §2.3), so no bound carries force; contacts and forces come from it.
+
+**Failures.** Every LP status is checked. A non-optimal interior-point solve is retried once with dual simplex; a
+second failure raises :class:`SimulationError` (status, iteration, LP size). An infeasible LP cannot happen from an
+overlap-free start (s = 0, Gamma = 1 is feasible), so it is reported as an error too. Overlapping inputs are
+rejected up front with :class:`OverlapError`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError, OverlapError, SimulationError, require
+from .lp_constraints import constraint_rows, pair_vectors, pairs_in_cutoff, particle_force_sums
+from .neighbours import pairs_within
+from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from .runs import History, Progress
+
+#: Default regime thresholds on sqrt(Gamma_prev) - 1 (spec §1.3).
+REGIME_THRESHOLDS = (5e-4, 1e-5)
+#: s_bound of regimes 2 and 3 in units of the largest radius R (spec §1.3).
+REGIME_S_BOUNDS = (0.1, 0.01)
+#: Cutoff of regimes 2 and 3 in units of R (spec §1.3).
+REGIME_CUTOFFS = (2.7, 2.7)
+#: Smallest regime-1 bound sqrt(d) s_bound / R accepted before the cutoff is enlarged instead.
+MIN_FAR_BOUND = 0.1
+#: Largest correction of sqrt(Gamma) tolerated for solver round-off before the step is declared broken.
+MAX_OVERLAP_CORRECTION = 1e-8
+CHECKPOINT_KIND = "calippso"
+#: History codes of how an LP was solved.
+METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2}
+
+
+# --- result -----------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class CalippsoResult:
+    """A CALiPPSO run.
+
+    Attributes
+    ----------
+    packing : Packing
+        The jammed packing with ACTUAL diameters (same box and length unit as the input); metadata
+        ``algorithm="calippso"``, ``parameters``, ``counters``.
+    converged : bool
+        Both tolerances met before ``max_iterations``.
+    iterations : int
+        LPs solved in the main loop (the final force LP not included).
+    history : dict of arrays, one row per iteration
+        ``sqrt_gamma_minus_1``, ``max_displacement`` (non-rattlers, units of the largest diameter),
+        ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cutoff`` and ``s_bound``
+        (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``,
+        ``overlap_correction``.
+    pairs : (K, 2) int array
+        Contacts i < j among non-rattlers (a contact = pair with a positive dual, see module docstring).
+    forces : (K,) float array
+        Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1).
+    contact_vectors : (K, d) float array
+        Unit vectors (r_i - r_j)/|r_i - r_j| (minimum image): the force on i from j is ``forces * contact_vectors``.
+    rattlers : (N,) bool array
+        Particles outside the (d+1)-core of the contact graph.
+    n_contacts : int
+        Contacts among non-rattlers, N_c.
+    isostatic : bool
+        N_c == d (N_s - 1) + 1 with N_s non-rattlers (one state of self-stress).
+    force_balance_residual : float
+        max over non-rattlers of |sum_j f_ij n_ij|, in units of the mean contact force (dimensionless).
+    gaps : (G,) float array
+        Normalised gaps h = r_ij / sigma_ij - 1 of the non-contact pairs among non-rattlers with h < ``gap_range``.
+    gap_pairs : (G, 2) int array
+        The pairs of ``gaps``.
+    phi_initial : float
+        Packing fraction of the input.
+    wall_time : float
+        Seconds for the whole call.
+    fine_tuned : bool
+        Forces come from the final unbounded LP (False: it failed and the last main-loop LP's duals are used).
+    """
+
+    packing: Packing
+    converged: bool
+    iterations: int
+    history: dict[str, np.ndarray]
+    pairs: np.ndarray
+    forces: np.ndarray
+    contact_vectors: np.ndarray
+    rattlers: np.ndarray
+    n_contacts: int
+    isostatic: bool
+    force_balance_residual: float
+    gaps: np.ndarray
+    gap_pairs: np.ndarray
+    phi_initial: float
+    wall_time: float
+    fine_tuned: bool
+    counters: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_rattlers(self) -> int:
+        return int(np.count_nonzero(self.rattlers))
+
+    @property
+    def n_stable(self) -> int:
+        return int(self.rattlers.size - self.n_rattlers)
+
+    @property
+    def phi(self) -> float:
+        return self.packing.phi
+
+    def summary(self) -> dict[str, float]:
+        """Flat scalars for a results table (flags as 0/1)."""
+        return {
+            "phi": self.packing.phi,
+            "delta_phi": self.packing.phi - self.phi_initial,
+            "iterations": float(self.iterations),
+            "converged": float(self.converged),
+            "is_isostatic": float(self.isostatic),
+            "rattler_fraction": self.n_rattlers / self.rattlers.size,
+            "force_balance_residual": self.force_balance_residual,
+            "n_contacts": float(self.n_contacts),
+            "n_stable": float(self.n_stable),
+            "isostatic_excess": float(self.n_contacts - (self.packing.dim * (self.n_stable - 1) + 1)),
+            "wall_time": self.wall_time,
+        }
+
+
+# --- the LP ---------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class LPSolution:
+    """Solution of one LP: displacements s (N, d), Gamma, pair duals lambda >= 0, solve time, method used."""
+
+    s: np.ndarray
+    gamma: float
+    duals: np.ndarray
+    solve_time: float
+    method: str
+
+
+def _highs_options(tolerance: float, extra: dict[str, Any] | None) -> dict[str, Any]:
+    opts: dict[str, Any] = {
+        "output_flag": False,
+        "solver": "ipm",  # IPX in this HiGHS build
+        "run_crossover": "on",  # a vertex solution: duals exact and zero off the active set
+        "primal_feasibility_tolerance": tolerance,
+        "dual_feasibility_tolerance": tolerance,
+        "ipm_optimality_tolerance": tolerance,
+        # r_ij components are O(1) in our units, but keep tiny ones rather than treating them as zero
+        "small_matrix_value": 1e-12,
+    }
+    opts.update(extra or {})
+    return opts
+
+
+def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance=1e-9, options=None,
+             iteration=-1) -> LPSolution:
+    """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
+
+    ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
+    ``gamma_bounds`` the (lower, upper) bounds of Gamma. On a non-optimal interior-point result the LP is solved
+    once more with dual simplex before giving up.
+    """
+    import highspy
+
+    dim = rij.shape[1]
+    m = rij.shape[0]
+    ncol = n * dim + 1
+    start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, n)
+    lp = highspy.HighsLp()
+    lp.num_col_ = ncol
+    lp.num_row_ = m
+    cost = np.zeros(ncol)
+    cost[-1] = -1.0
+    lower = np.full(ncol, -s_bound)
+    upper = np.full(ncol, s_bound)
+    lower[pinned * dim:(pinned + 1) * dim] = 0.0
+    upper[pinned * dim:(pinned + 1) * dim] = 0.0
+    lower[-1], upper[-1] = gamma_bounds
+    inf = highspy.kHighsInf
+    lower[~np.isfinite(lower)] = -inf
+    upper[~np.isfinite(upper)] = inf
+    lp.col_cost_ = cost
+    lp.col_lower_ = lower
+    lp.col_upper_ = upper
+    lp.row_lower_ = np.full(m, -inf)
+    lp.row_upper_ = rhs
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_ = ncol
+    lp.a_matrix_.num_row_ = m
+    lp.a_matrix_.start_ = start
+    lp.a_matrix_.index_ = index
+    lp.a_matrix_.value_ = value
+
+    opts = _highs_options(tolerance, options)
+    attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
+    failures = []
+    t0 = time.perf_counter()
+    for method, o in attempts:
+        h = highspy.Highs()
+        for key, val in o.items():
+            if h.setOptionValue(key, val) != highspy.HighsStatus.kOk:
+                raise InputError(f"solver_options: HiGHS rejected option {key}={val!r}")
+        h.passModel(lp)
+        h.run()
+        status = h.getModelStatus()
+        if status == highspy.HighsModelStatus.kOptimal:
+            sol = h.getSolution()
+            x = np.asarray(sol.col_value)
+            # minimisation with <= rows: HiGHS row duals are <= 0; lambda = -dual >= 0
+            duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+            return LPSolution(x[:-1].reshape(n, dim).copy(), float(x[-1]), duals, time.perf_counter() - t0, method)
+        failures.append(f"{method}: {h.modelStatusToString(status)}")
+        if status in (highspy.HighsModelStatus.kInfeasible, highspy.HighsModelStatus.kUnbounded):
+            break  # a property of the LP, not of the method
+    raise SimulationError(
+        f"CALiPPSO LP failed at iteration {iteration} ({m} pair rows, {ncol} columns): " + "; ".join(failures)
+    )
+
+
+def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, gamma_bounds,
+                     feasibility=1e-12, max_pivots=None) -> LPSolution | None:
+    """Solve the LP from a predicted active set by primal simplex pivots; None if that does not work out.
+
+    The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
+    ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
+    non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
+    transpose, the duals. While a dual is negative, that contact is released along the edge that keeps the others
+    tight and the first pair row to close enters (the primal simplex method with the exact ratio test; every
+    pivot refactorises). The vertex is returned only when it is *certified optimal*: all duals > 0, all rows and
+    bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e. primal and dual feasible with complementary
+    slackness. Anything else -- a rattler joining the network, an active s or Gamma bound, a singular system, more
+    than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS. Near convergence the active
+    set barely changes, and this replaces a HiGHS solve (seconds) by a few factorisations (milliseconds).
+    """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.linalg import splu
+
+    t0 = time.perf_counter()
+    dim = rij.shape[1]
+    if rattler[pinned]:
+        return None
+    free = ~rattler
+    free[pinned] = False
+    col_of = np.full(n, -1, dtype=np.int64)
+    col_of[free] = np.arange(np.count_nonzero(free))
+    nu = dim * int(np.count_nonzero(free)) + 1
+    if contact_keys.size != nu:
+        return None  # not isostatic: no square system
+    # the rows among stable particles, in the reduced columns (pinned particle dropped)
+    stable_rows = np.flatnonzero(~rattler[pi] & ~rattler[pj])
+    start, index, value, rhs = constraint_rows(rij[stable_rows], sigma2[stable_rows], pi[stable_rows],
+                                               pj[stable_rows], n)
+    part = np.minimum(index // dim, n - 1)
+    is_gamma = index == n * dim
+    keep = is_gamma | (col_of[part] >= 0)
+    new_col = np.where(is_gamma, nu - 1, col_of[part] * dim + index % dim)
+    row_id = np.repeat(np.arange(stable_rows.size), np.diff(start))
+    a_all = csr_matrix((value[keep], (row_id[keep], new_col[keep])), shape=(stable_rows.size, nu))
+    key = pi[stable_rows] * n + pj[stable_rows]
+    basis = np.flatnonzero(np.isin(key, contact_keys))
+    if basis.size != nu:
+        return None  # a predicted contact left the cutoff or involves a particle that is now a rattler
+    if max_pivots is None:
+        max_pivots = 20 + nu // 20
+    e_gamma = np.zeros(nu)
+    e_gamma[-1] = 1.0
+    for pivot in range(max_pivots + 1):
+        try:
+            lu = splu(a_all[basis].tocsc())
+        except RuntimeError:  # singular
+            return None
+        u = lu.solve(rhs[basis])
+        lam = lu.solve(e_gamma, trans="T")
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):
+            return None
+        slack = rhs - a_all @ u
+        if pivot == 0:
+            in_basis = np.zeros(stable_rows.size, dtype=bool)
+            in_basis[basis] = True
+            if np.min(slack[~in_basis], initial=0.0) < -feasibility:
+                return None  # the predicted vertex is not feasible at the new positions
+        if np.max(np.abs(u[:-1]), initial=0.0) > s_bound or not (gamma_bounds[0] - 1e-13 <= u[-1] <= gamma_bounds[1]):
+            return None
+        k = int(np.argmin(lam))
+        if lam[k] > 0.0:
+            break
+        if pivot == max_pivots:
+            return None
+        # release row basis[k]: direction d with A_B d = -e_k; Gamma grows at rate -lam_k > 0
+        e_k = np.zeros(nu)
+        e_k[k] = -1.0
+        d = lu.solve(e_k)
+        rate = a_all @ d
+        rate[basis] = 0.0
+        blocking = np.flatnonzero(rate > 1e-14)
+        if blocking.size == 0:
+            return None  # unbounded edge: only the s bounds stop it
+        ratios = np.maximum(slack[blocking], 0.0) / rate[blocking]
+        j = int(np.argmin(ratios))
+        step = ratios[j]
+        if np.max(np.abs(u[:-1] + step * d[:-1]), initial=0.0) > s_bound:
+            return None  # an s bound would block first
+        basis[k] = blocking[j]
+    gamma = max(float(u[-1]), gamma_bounds[0])
+    s = np.zeros((n, dim))
+    s[free] = u[:-1].reshape(-1, dim)
+    active = np.zeros(len(pi), dtype=bool)
+    active[stable_rows[basis]] = True
+    # every row of the LP: |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 >= 0. Rattlers (columns without active rows)
+    # may be pushed away from a neighbour their cage wall has come to touch; this keeps the solution optimal.
+    for _ in range(20):
+        slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - gamma * sigma2
+        bad = (slack < feasibility) & ~active
+        if not np.any(bad):
+            break
+        if np.any(bad & ~rattler[pi] & ~rattler[pj] & (slack < -feasibility)):
+            return None
+        for k in np.flatnonzero(bad & (rattler[pi] | rattler[pj])):
+            push = 2.0 * (feasibility - slack[k]) / (2.0 * float(np.dot(rij[k], rij[k])))
+            if rattler[pi[k]]:
+                s[pi[k]] += push * rij[k]
+            else:
+                s[pj[k]] -= push * rij[k]
+    else:
+        return None
+    if np.min(slack[~active], initial=0.0) < -feasibility or np.max(np.abs(s)) > s_bound:
+        return None
+    duals = np.zeros(len(pi))
+    duals[stable_rows[basis]] = lam
+    return LPSolution(s, gamma, duals, time.perf_counter() - t0, f"active-set+{pivot}")
+
+
+# --- cutoff and bounds --------------------------------------------------------------------------------------------
+
+
+def cutoff_and_bound(sqrt_gamma_prev: float, radius: float, cutoff0: float, dim: int, box: float,
+                     thresholds=REGIME_THRESHOLDS, s_bound: float | None = None):
+    """The cutoff l, the per-component bound s_bound and Gamma_max of one iteration (absolute lengths).
+
+    ``radius`` is the current largest radius R, ``cutoff0`` the user cutoff l0, ``s_bound`` an optional fixed
+    bound overriding the regimes. Returns ``(l, s_bound, gamma_max, regime)``; guarantees s_bound > 0,
+    l <= box/2 and gamma_max > 1 (see the module docstring), else raises :class:`InputError`.
+    """
+    R = radius
+    rd = math.sqrt(dim)
+    g = sqrt_gamma_prev - 1.0
+    if g > thresholds[0]:
+        regime = 1
+        grow = max(1.5, sqrt_gamma_prev)
+        ell = max(cutoff0, 2.0 * (grow * R + MIN_FAR_BOUND * R))
+        sb = (ell / 2.0 - grow * R) / rd
+    else:
+        regime = 2 if g > thresholds[1] else 3
+        frac = REGIME_S_BOUNDS[regime - 2]
+        sb = frac * R
+        ell = min(REGIME_CUTOFFS[regime - 2] * R, cutoff0)
+        # keep sqrt(Gamma_max) >= 1.1 (l0 fixed while R grows)
+        ell = max(ell, 2.2 * R + 2.0 * rd * sb)
+    if s_bound is not None:
+        sb = s_bound
+        ell = max(ell, 2.2 * R + 2.0 * rd * sb)
+    if ell > box / 2.0:
+        ell = box / 2.0
+        sb = min(sb, (ell - 2.0 * R * (1.0 + 1e-3)) / (2.0 * rd))
+        if sb <= 1e-6 * R:
+            raise InputError(
+                f"box={box!r}: too small for CALiPPSO (cutoff must stay below L/2 = {box / 2:.6g} while exceeding "
+                f"the contact distance {2 * R:.6g}); use more particles"
+            )
+    gamma_max = ((ell - 2.0 * rd * sb) / (2.0 * R)) ** 2
+    return ell, sb, gamma_max, regime
+
+
+def nearest_gap_median(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.5) -> float:
+    """Median over particles of the nearest-neighbour gap h = r/sigma - 1 (capped at scale - 1)."""
+    i, j, r = pairs_within(positions, diameters, box, scale)
+    h = r / (0.5 * (diameters[i] + diameters[j])) - 1.0
+    best = np.full(len(positions), scale - 1.0)
+    np.minimum.at(best, i, h)
+    np.minimum.at(best, j, h)
+    return float(np.median(best))
+
+
+# --- contact network ------------------------------------------------------------------------------------------------
+
+
+def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
+    """Contacts, rattlers and force balance from LP duals.
+
+    Returns ``(contact_mask over pairs, rattler mask, n_contacts among non-rattlers, isostatic, residual)``.
+    """
+    from .contacts import rattler_mask
+
+    contact = duals * sigma2 * n > zero_force
+    ci, cj = pi[contact], pj[contact]
+    rattler = rattler_mask(n, ci, cj, dim + 1)
+    stable_pair = contact & ~rattler[pi] & ~rattler[pj]
+    n_contacts = int(np.count_nonzero(stable_pair))
+    n_stable = n - int(np.count_nonzero(rattler))
+    isostatic = bool(n_stable > 0 and n_contacts == dim * (n_stable - 1) + 1)
+    # every contact force counts (in a degenerate, crystalline vertex a "rattler" can hold d collinear forces)
+    weight = np.where(contact, duals, 0.0)
+    residual = force_balance(rij, weight, pi, pj, n, rattler)
+    return contact, rattler, n_contacts, isostatic, residual
+
+
+def force_balance(rij, weight, pi, pj, n, rattler) -> float:
+    """max over non-rattlers of |sum_j w_ij r_ij| divided by the mean w_ij |r_ij| over pairs with w > 0."""
+    active = weight > 0
+    if not np.any(active) or np.all(rattler):
+        return math.inf
+    mean_force = float(np.mean(weight[active] * np.linalg.norm(rij[active], axis=1)))
+    net = particle_force_sums(rij, weight, pi, pj, n)
+    return float(np.max(np.linalg.norm(net[~rattler], axis=1)) / mean_force)
+
+
+# --- the driver -------------------------------------------------------------------------------------------------------
+
+
+def _validate(packing, max_iterations, gamma_tolerance, displacement_tolerance, s_bound, cutoff, initial_sqrt_gamma,
+              zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval, checkpoint_interval,
+              regime_thresholds):
+    require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a Packing")
+    require(isinstance(max_iterations, (int, np.integer)) and max_iterations >= 1, "max_iterations",
+            max_iterations, "must be an integer >= 1")
+    for name, value in (("gamma_tolerance", gamma_tolerance), ("displacement_tolerance", displacement_tolerance),
+                        ("zero_force", zero_force), ("solver_tolerance", solver_tolerance),
+                        ("overlap_tolerance", overlap_tolerance), ("gap_range", gap_range),
+                        ("checkpoint_interval", checkpoint_interval)):
+        require(isinstance(value, (int, float)) and math.isfinite(value) and value > 0, name, value,
+                "must be a finite number > 0")
+    require(isinstance(progress_interval, (int, float)) and progress_interval >= 0, "progress_interval",
+            progress_interval, "must be a number >= 0")
+    require(1e-10 <= solver_tolerance <= 1e-5, "solver_tolerance", solver_tolerance, "must be in [1e-10, 1e-5]")
+    require(s_bound is None or (math.isfinite(s_bound) and 0 < s_bound < 0.5), "s_bound", s_bound,
+            "must be None or in (0, 0.5) (units of the largest diameter)")
+    require(cutoff is None or (math.isfinite(cutoff) and cutoff > 1), "cutoff", cutoff,
+            "must be None or > 1 (units of the initial largest diameter)")
+    require(initial_sqrt_gamma is None or (math.isfinite(initial_sqrt_gamma) and initial_sqrt_gamma >= 1),
+            "initial_sqrt_gamma", initial_sqrt_gamma, "must be None or >= 1")
+    th = tuple(regime_thresholds)
+    require(len(th) == 2 and all(math.isfinite(t) and t > 0 for t in th) and th[0] > th[1], "regime_thresholds",
+            regime_thresholds, "must be two numbers > 0, the first larger")
+
+
+def run_calippso(
+    packing: Packing,
+    *,
+    max_iterations: int = 1000,
+    gamma_tolerance: float = 1e-12,
+    displacement_tolerance: float = 1e-9,
+    s_bound: float | None = None,
+    cutoff: float | None = None,
+    initial_sqrt_gamma: float | None = None,
+    regime_thresholds: tuple[float, float] = REGIME_THRESHOLDS,
+    zero_force: float = 1e-10,
+    solver_tolerance: float = 1e-9,
+    solver_options: dict[str, Any] | None = None,
+    overlap_tolerance: float = DEFAULT_OVERLAP_TOLERANCE,
+    gap_range: float = 0.5,
+    fine_tune: bool = True,
+    active_set: bool = True,
+    require_convergence: bool = False,
+    checkpoint: str | Path | None = None,
+    checkpoint_interval: float = 300.0,
+    progress_interval: float = 10.0,
+) -> CalippsoResult:
+    """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
+
+    Parameters
+    ----------
+    packing : Packing
+        Overlap-free start (any d from 2 to 5, any polydispersity); overlaps beyond ``overlap_tolerance`` raise
+        :class:`OverlapError`. The box must exceed about 4 largest diameters (cutoff < L/2).
+    max_iterations : int
+        Iteration cap (1000). Not converged by then: ``converged=False`` (or an error if ``require_convergence``).
+    gamma_tolerance : float
+        Convergence when sqrt(Gamma) - 1 <= this (1e-12) ...
+    displacement_tolerance : float
+        ... and max |s_{i,mu}| over non-rattlers <= this times the current largest diameter (1e-9).
+    s_bound : float or None
+        Fixed per-component displacement bound, in units of the current largest diameter; None = the spec's
+        regimes (0.05 / 0.005 of the diameter near jamming).
+    cutoff : float or None
+        l0, the regime-1 cutoff on centre distances, in units of the initial largest diameter; None = 2 (4 R0).
+        It is enlarged automatically when it becomes too small (see the module docstring).
+    initial_sqrt_gamma : float or None
+        sqrt(Gamma_prev) for the first regime choice; None = 1 + median nearest-neighbour gap.
+    regime_thresholds : (float, float)
+        Thresholds on sqrt(Gamma_prev) - 1 between regimes 1/2 and 2/3 ((5e-4, 1e-5)).
+    zero_force : float
+        A pair is a contact iff its dual share lambda sigma^2 exceeds zero_force / N (1e-10).
+    solver_tolerance : float
+        HiGHS primal/dual feasibility and IPM optimality tolerances (1e-9).
+    solver_options : dict or None
+        Extra HiGHS options (e.g. ``{"threads": 1}``); passed verbatim.
+    overlap_tolerance : float
+        Relative overlap 1 - r/sigma accepted in the input and the output (1e-10, as ``Packing.check``).
+    gap_range : float
+        Keep the gaps h < gap_range of non-contact pairs among non-rattlers (0.5).
+    fine_tune : bool
+        Solve the final unbounded LP for the forces (True).
+    active_set : bool
+        Try the certified active-set solve (:func:`solve_active_set`) before HiGHS whenever the previous LP was
+        isostatic (True). Off: every LP goes to HiGHS.
+    require_convergence : bool
+        Raise :class:`SimulationError` instead of returning an unconverged result.
+    checkpoint : path or None
+        Save the state there every ``checkpoint_interval`` seconds and when the run stops unconverged; a call
+        with an existing checkpoint of the same input and parameters (``max_iterations`` may differ) resumes from
+        it. Removed when the run converges.
+    progress_interval : float
+        Seconds between progress lines (logger ``spherejam``).
+    """
+    _validate(packing, max_iterations, gamma_tolerance, displacement_tolerance, s_bound, cutoff, initial_sqrt_gamma,
+              zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval, checkpoint_interval,
+              regime_thresholds)
+    wall0 = time.perf_counter()
+    report = packing.check(overlap_tolerance)
+    if not report.ok:
+        raise OverlapError(f"CALiPPSO input: {report}")
+    n, dim = packing.n, packing.dim
+    unit = float(packing.diameters.max())  # internal length unit: the initial largest diameter
+    box = packing.box / unit
+    x = packing.positions / unit
+    dia = packing.diameters / unit
+    phi_initial = packing.phi
+    cutoff0 = 2.0 if cutoff is None else float(cutoff)
+    if initial_sqrt_gamma is None:
+        initial_sqrt_gamma = 1.0 + nearest_gap_median(x, dia, box)
+    parameters = {
+        "max_iterations": int(max_iterations), "gamma_tolerance": gamma_tolerance,
+        "displacement_tolerance": displacement_tolerance, "s_bound": s_bound, "cutoff": cutoff0,
+        "initial_sqrt_gamma": float(initial_sqrt_gamma), "regime_thresholds": list(regime_thresholds),
+        "zero_force": zero_force, "solver_tolerance": solver_tolerance, "overlap_tolerance": overlap_tolerance,
+        "fine_tune": bool(fine_tune), "active_set": bool(active_set), "solver": "highs-ipm+crossover",
+    }
+
+    history = History()
+    sqrt_gamma_prev = float(initial_sqrt_gamma)
+    pinned = _initial_pin(x, dia, box)
+    iteration = 0
+    converged = False
+    lp_time = 0.0
+    methods: dict[str, int] = {}
+    predicted = None  # (contact keys, rattler mask) of the last LP, when isostatic
+    ckpt = Path(checkpoint) if checkpoint is not None else None
+    fingerprint = _fingerprint(packing, {k: v for k, v in parameters.items() if k != "max_iterations"})
+    if ckpt is not None and ckpt.exists():
+        x, dia, state, rows = _load_state(ckpt, fingerprint)
+        iteration, sqrt_gamma_prev, pinned = state["iteration"], state["sqrt_gamma_prev"], state["pinned"]
+        lp_time = state["lp_time"]
+        history = History(rows)
+    last_save = time.perf_counter()
+    progress = Progress(f"calippso N={n} d={dim}", progress_interval)
+    last = None  # (rij, sigma2, pi, pj, solution, rattler) of the latest LP
+
+    while iteration < max_iterations:
+        R = 0.5 * float(dia.max())
+        ell, sb, gamma_max, regime = cutoff_and_bound(
+            sqrt_gamma_prev, R, cutoff0, dim, box, regime_thresholds,
+            None if s_bound is None else s_bound * 2.0 * R,
+        )
+        pi, pj, _ = pairs_in_cutoff(x, box, ell)
+        rij = pair_vectors(x, box, pi, pj)
+        sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
+        sol = None
+        if predicted is not None:
+            sol = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=sb, pinned=pinned,
+                                   gamma_bounds=(1.0, gamma_max))
+        if sol is None:
+            sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
+                           tolerance=solver_tolerance, options=solver_options, iteration=iteration)
+        iteration += 1
+        lp_time += sol.solve_time
+        methods[sol.method.split("+")[0]] = methods.get(sol.method.split("+")[0], 0) + 1
+        contact, rattler, n_contacts, isostatic, _ = contact_network(rij, sigma2, pi, pj, sol.duals, n, dim,
+                                                                     zero_force)
+        predicted = _prediction(contact, rattler, pi, pj, n, isostatic, active_set)
+        sqrt_gamma = math.sqrt(max(sol.gamma, 1.0))
+        # step: move, inflate, and make sure round-off in the solver left no overlap
+        x = np.mod(x + sol.s, box)
+        dia = dia * sqrt_gamma
+        h_min = _closest_h(x, dia, box)
+        correction = 0.0
+        if h_min < 1.0:
+            correction = 1.0 - h_min
+            if correction > MAX_OVERLAP_CORRECTION:
+                raise SimulationError(
+                    f"CALiPPSO iteration {iteration}: the LP step overlaps by {correction:.3e} (relative); "
+                    "the linearised constraints or the cutoff were violated"
+                )
+            dia = dia * h_min
+            sqrt_gamma *= h_min
+        moving = ~rattler if np.any(~rattler) else np.ones(n, dtype=bool)
+        max_s = float(np.max(np.abs(sol.s[moving]))) / float(dia.max())
+        max_s_all = float(np.max(np.abs(sol.s))) / float(dia.max())
+        phi = _phi(dia, box, dim)
+        history.append(
+            sqrt_gamma_minus_1=sqrt_gamma - 1.0, max_displacement=max_s, max_displacement_all=max_s_all, phi=phi,
+            n_constraints=len(pi), solve_time=sol.solve_time, cutoff=ell / dia.max(), s_bound=sb / dia.max(),
+            regime=regime, method=METHOD_CODES[sol.method.split("+")[0]], n_contacts=n_contacts, n_rattlers=int(np.count_nonzero(rattler)),
+            isostatic=int(isostatic), overlap_correction=correction,
+        )
+        progress.update(
+            f"it {iteration}: sqrt(G)-1 {sqrt_gamma - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
+            f"rows {len(pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
+            f"LP {sol.solve_time:.2f} s"
+        )
+        last = (rij, sigma2, pi, pj, sol, rattler)
+        sqrt_gamma_prev = sqrt_gamma
+        if rattler[pinned] and np.any(~rattler):
+            pinned = _repin(contact, pi, pj, rattler, n)
+        if sqrt_gamma - 1.0 <= gamma_tolerance and max_s <= displacement_tolerance:
+            converged = True
+            break
+        if ckpt is not None and time.perf_counter() - last_save >= checkpoint_interval:
+            _save_state(ckpt, fingerprint, x, dia, history, iteration, sqrt_gamma_prev, pinned, lp_time)
+            last_save = time.perf_counter()
+
+    if not converged and require_convergence:
+        raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
+                              f"(last sqrt(Gamma)-1 = {history.last('sqrt_gamma_minus_1'):.3e}, "
+                              f"max|s| = {history.last('max_displacement'):.3e})")
+
+    # forces: one more LP at the final configuration, nothing moves (spec §2.3)
+    fine_tuned = False
+    fine_gamma = math.nan
+    R = 0.5 * float(dia.max())
+    ell = cutoff_and_bound(1.0, R, cutoff0, dim, box, regime_thresholds)[0]  # the final regime's cutoff
+    pi, pj, _ = pairs_in_cutoff(x, box, ell)
+    rij = pair_vectors(x, box, pi, pj)
+    sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
+    duals = None
+    if fine_tune:
+        try:
+            fine = None
+            if predicted is not None:
+                fine = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=R, pinned=pinned,
+                                        gamma_bounds=(-math.inf, math.inf))
+            if fine is None:
+                fine = solve_lp(rij, sigma2, pi, pj, n, s_bound=R, pinned=pinned,
+                                gamma_bounds=(-math.inf, math.inf), tolerance=solver_tolerance,
+                                options=solver_options, iteration=iteration + 1)
+            methods[fine.method.split("+")[0]] = methods.get(fine.method.split("+")[0], 0) + 1
+            lp_time += fine.solve_time
+            duals = fine.duals
+            fine_gamma = fine.gamma
+            fine_tuned = True
+        except SimulationError:
+            duals = None
+    if duals is None:
+        if last is None:
+            raise SimulationError("CALiPPSO: no LP solved (checkpoint already at max_iterations?)")
+        # the main loop's last LP: its pair vectors are at the positions before the last (tiny) step
+        rij, sigma2, pi, pj, sol, _ = last
+        duals = sol.duals
+    contact, rattler, n_contacts, isostatic, residual = contact_network(rij, sigma2, pi, pj, duals, n, dim,
+                                                                        zero_force)
+    stable_pair = contact & ~rattler[pi] & ~rattler[pj]
+    r_norm = np.linalg.norm(rij, axis=1)
+    f = duals[stable_pair] * r_norm[stable_pair]
+    forces = f / f.mean() if f.size else f
+    pairs = np.stack([pi[stable_pair], pj[stable_pair]], axis=1)
+    vectors = rij[stable_pair] / r_norm[stable_pair, None]
+    gaps, gap_pairs = _near_gaps(x, dia, box, gap_range, rattler, pairs, n)
+
+    out = Packing(
+        x * unit, dia * unit, packing.box,
+        {
+            **{k: v for k, v in packing.metadata.items() if k not in ("provenance", "reduced_pressure")},
+            "algorithm": "calippso",
+            "parameters": {**parameters, "input_algorithm": packing.metadata.get("algorithm")},
+        },
+    )
+    final_report = out.check(overlap_tolerance)
+    if not final_report.ok:  # cannot happen by construction; never return an overlapping packing
+        raise SimulationError(f"CALiPPSO output overlaps: {final_report}")
+    wall = time.perf_counter() - wall0
+    counters = {
+        "iterations": iteration, "converged": converged, "lp_time": lp_time, "wall_time": wall,
+        "lp_methods": methods, "fine_tuned": fine_tuned,
+        "fine_tune_sqrt_gamma_minus_1": math.sqrt(fine_gamma) - 1.0 if fine_gamma > 0 else math.nan,
+        "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
+        "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
+        "worst_overlap": final_report.worst_overlap, "pinned": int(pinned),
+    }
+    out.metadata["counters"] = counters
+    if ckpt is not None:
+        if converged:
+            ckpt.unlink(missing_ok=True)
+        else:  # a later call with a larger max_iterations continues from here
+            _save_state(ckpt, fingerprint, x, dia, history, iteration, sqrt_gamma_prev, pinned, lp_time)
+    return CalippsoResult(
+        packing=out, converged=converged, iterations=iteration, history=history.as_arrays(), pairs=pairs,
+        forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts, isostatic=isostatic,
+        force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial, wall_time=wall,
+        fine_tuned=fine_tuned, counters=counters,
+    )
+
+
+# --- helpers ----------------------------------------------------------------------------------------------------------
+
+
+def _phi(dia, box, dim) -> float:
+    return float(np.sum(math.pi ** (dim / 2) / math.gamma(dim / 2 + 1) * (0.5 * dia) ** dim) / box**dim)
+
+
+def _closest_h(x, dia, box) -> float:
+    i, j, r = pairs_within(x, dia, box, 1.0 + 1e-6)
+    if len(r) == 0:
+        return math.inf
+    return float(np.min(r / (0.5 * (dia[i] + dia[j]))))
+
+
+def _initial_pin(x, dia, box) -> int:
+    """The particle with the most neighbours within 1.05 sigma (likely part of the rigid network)."""
+    i, j, _ = pairs_within(x, dia, box, 1.05)
+    if len(i) == 0:
+        return len(x) - 1
+    count = np.bincount(np.concatenate([i, j]), minlength=len(x))
+    return int(np.argmax(count))
+
+
+def _prediction(contact, rattler, pi, pj, n, isostatic, enabled):
+    if not (enabled and isostatic):
+        return None
+    stable = contact & ~rattler[pi] & ~rattler[pj]
+    return np.sort(pi[stable] * n + pj[stable]), rattler.copy()
+
+
+def _repin(contact, pi, pj, rattler, n) -> int:
+    count = np.bincount(np.concatenate([pi[contact], pj[contact]]), minlength=n)
+    count[rattler] = -1
+    return int(np.argmax(count))
+
+
+def _near_gaps(x, dia, box, gap_range, rattler, contact_pairs, n):
+    i, j, r = pairs_within(x, dia, box, 1.0 + gap_range)
+    keep = ~rattler[i] & ~rattler[j]
+    i, j, r = i[keep], j[keep], r[keep]
+    key = i * n + j
+    is_contact = np.isin(key, contact_pairs[:, 0] * n + contact_pairs[:, 1])
+    i, j, r = i[~is_contact], j[~is_contact], r[~is_contact]
+    h = r / (0.5 * (dia[i] + dia[j])) - 1.0
+    return h, np.stack([i, j], axis=1)
+
+
+def _fingerprint(packing: Packing, parameters: dict[str, Any]) -> str:
+    import hashlib
+    import json
+
+    digest = hashlib.sha256()
+    digest.update(np.ascontiguousarray(packing.positions).tobytes())
+    digest.update(np.ascontiguousarray(packing.diameters).tobytes())
+    digest.update(json.dumps({"box": packing.box, **parameters}, sort_keys=True, default=str).encode())
+    return digest.hexdigest()[:32]
+
+
+def _save_state(path, fingerprint, x, dia, history, iteration, sqrt_gamma_prev, pinned, lp_time):
+    from .checkpoint import save_checkpoint
+
+    arrays = {"positions": x, "diameters": dia}
+    arrays.update({f"history_{k}": v for k, v in history.as_arrays().items()})
+    save_checkpoint(path, CHECKPOINT_KIND, arrays, {
+        "fingerprint": fingerprint, "iteration": iteration, "sqrt_gamma_prev": sqrt_gamma_prev,
+        "pinned": int(pinned), "lp_time": lp_time,
+    })
+
+
+def _load_state(path, fingerprint):
+    from .checkpoint import load_checkpoint
+    from .errors import PackingFileError
+
+    arrays, state = load_checkpoint(path, CHECKPOINT_KIND)
+    if state.get("fingerprint") != fingerprint:
+        raise PackingFileError(f"{path}: checkpoint of a different CALiPPSO input or parameters")
+    rows = {k[len("history_"):]: v for k, v in arrays.items() if k.startswith("history_")}
+    return arrays["positions"], arrays["diameters"], state, rows
+
+
+# --- distributions --------------------------------------------------------------------------------------------------
+
+
+#: Mean-field exponents (Charbonneau, Kurchan, Parisi, Urbani, Zamponi 2014): gaps g(h) ~ h^-gamma, extended forces
+#: P(f) ~ f^theta_e.
+MEAN_FIELD_GAMMA = 0.41269
+MEAN_FIELD_THETA_E = 0.42311
+
+
+@dataclass(frozen=True)
+class PowerLawFit:
+    """Maximum-likelihood fit of a density p(x) ∝ x^(a-1) on [lo, hi] (i.e. a cumulative C(x) ∝ x^a there).
+
+    ``exponent`` is the derived physical exponent (gaps: gamma = 1 - a; forces: theta = a - 1), ``stderr`` its
+    asymptotic standard error (Fisher information), ``n`` the number of samples in [lo, hi] out of ``n_total``.
+    """
+
+    cumulative_exponent: float
+    exponent: float
+    stderr: float
+    lo: float
+    hi: float
+    n: int
+    n_total: int
+
+
+def fit_cumulative_power_law(values: np.ndarray, lo: float, hi: float) -> tuple[float, float, int]:
+    """MLE of a in p(x) ∝ x^(a-1) on [lo, hi] from the samples inside; returns ``(a, stderr, n)``."""
+    from scipy.optimize import minimize_scalar
+
+    require(0 <= lo < hi, "fit range", (lo, hi), "must satisfy 0 <= lo < hi")
+    v = np.asarray(values, dtype=float)
+    v = v[(v >= lo) & (v <= hi) & (v > 0)]
+    k = v.size
+    if k < 5:
+        return math.nan, math.nan, k
+    u = np.log(v / hi)  # <= 0
+    mean_u = float(u.mean())
+    rho = lo / hi
+
+    def negloglik(a):
+        # -(1/k) log L, with normaliser (1 - rho^a)/a of x^(a-1) on [rho, 1] after scaling by hi
+        norm = -math.expm1(a * math.log(rho)) if rho > 0 else 1.0
+        return -(math.log(a) + (a - 1.0) * mean_u - math.log(norm))
+
+    res = minimize_scalar(negloglik, bounds=(1e-3, 20.0), method="bounded", options={"xatol": 1e-10})
+    a = float(res.x)
+    # Fisher information per sample: 1/a^2 - rho^a (ln rho)^2 / (1 - rho^a)^2
+    info = 1.0 / a**2
+    if rho > 0:
+        ra = rho**a
+        info -= ra * math.log(rho) ** 2 / (1.0 - ra) ** 2
+    stderr = 1.0 / math.sqrt(k * info) if info > 0 else math.nan
+    return a, stderr, k
+
+
+def gap_exponent(gaps: np.ndarray, lo: float = 1e-8, hi: float = 1e-2) -> PowerLawFit:
+    """Fit g(h) ~ h^-gamma at small h: the cumulative count of gaps below h grows as h^(1-gamma) on [lo, hi].
+
+    Default range: h from 1e-8 (below, gaps are not resolved by a 1e-9 displacement tolerance) to 1e-2 (above,
+    the distribution leaves the power law). Compare with the mean-field gamma = 0.41269.
+    """
+    a, se, k = fit_cumulative_power_law(gaps, lo, hi)
+    return PowerLawFit(a, 1.0 - a, se, lo, hi, k, int(np.size(gaps)))
+
+
+def force_exponent(forces: np.ndarray, lo: float = 1e-6, hi: float = 0.2) -> PowerLawFit:
+    """Fit P(f) ~ f^theta at small f (forces in units of their mean): cumulative ∝ f^(1+theta) on [lo, hi].
+
+    Compare with theta_e = 0.42311 for extended forces (use :func:`extended_forces`) or theta_l = 0.17462 when
+    buckler forces are included.
+    """
+    a, se, k = fit_cumulative_power_law(forces, lo, hi)
+    return PowerLawFit(a, a - 1.0, se, lo, hi, k, int(np.size(forces)))
+
+
+def extended_forces(result: CalippsoResult) -> np.ndarray:
+    """Forces (units of the mean) of contacts whose two particles both have more than d + 1 contacts.
+
+    Bucklers -- stable particles with exactly d + 1 contacts -- carry the localised weak forces (theta_l); leaving
+    out every contact that touches one isolates the extended ones (theta_e). This is our operational split, not a
+    quote of the paper's.
+    """
+    n = result.rattlers.size
+    z = np.bincount(result.pairs.ravel(), minlength=n)
+    buckler = z == result.packing.dim + 1
+    keep = ~buckler[result.pairs[:, 0]] & ~buckler[result.pairs[:, 1]]
+    return result.forces[keep]
+
+
+def distributions(result: CalippsoResult) -> dict[str, float]:
+    """Flat scalars of the small-argument fits of one jammed packing (for the results dataset)."""
+    g = gap_exponent(result.gaps)
+    f_all = force_exponent(result.forces)
+    f_ext = force_exponent(extended_forces(result))
+    return {
+        "gap_gamma": g.exponent, "gap_gamma_stderr": g.stderr, "gap_fit_n": float(g.n),
+        "gap_fit_lo": g.lo, "gap_fit_hi": g.hi,
+        "force_theta_all": f_all.exponent, "force_theta_all_stderr": f_all.stderr, "force_fit_n": float(f_all.n),
+        "force_theta_extended": f_ext.exponent, "force_theta_extended_stderr": f_ext.stderr,
+        "force_extended_fit_n": float(f_ext.n), "force_fit_lo": f_all.lo, "force_fit_hi": f_all.hi,
+    }

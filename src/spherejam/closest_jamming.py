@@ -1,0 +1,162 @@
+"""The closest jammed configuration of a packing: the paper's modified Lubachevsky–Stillinger (MLS) search.
+
+Paper §III.B (``algorithms.md`` §3). From any packing (rescaled so that its closest pair touches), with fresh
+Maxwell–Boltzmann velocities at T = 0.2:
+
+1. compress with LS at the initial rate gamma_0 (10) until the reduced pressure of a window (20 events per
+   particle) reaches p_max (1e12);
+2. equilibrate at zero rate until p < p_max; if p is still >= p_max after ``max_equilibration_windows`` (50)
+   windows in a row, the packing is jammed: stop;
+3. compress again at gamma_k = gamma_0 / f^k (f = 2, k = number of restarts so far);
+4. stop at the first window with p >= p_max while compressing at a rate <= the final rate (1e-4).
+
+The closest jamming density phi_J is the packing fraction when the loop stops. Fast compressions at the start keep
+the configuration in its initial basin; slow ones at the end make the high pressure a sign of true jamming.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from .errors import require
+from .lubachevsky_stillinger import (
+    DEFAULT_TEMPERATURE,
+    Controller,
+    WindowStats,
+    _finite,
+    drive,
+    validate_common,
+)
+from .packing import Packing
+from .runs import RunResult
+
+CHECKPOINT_KIND_MLS = "mls"
+
+
+class MLSController(Controller):
+    """The MLS state machine, evaluated after every window.
+
+    ``stage`` numbers the phases: 0 = first compression, 1 = first equilibration, 2 = compression at gamma_0/f, ...
+    """
+
+    kind = CHECKPOINT_KIND_MLS
+    extra_columns = ("stage",)
+
+    def __init__(self, initial_rate: float, decrease_factor: float, final_rate: float, p_max: float,
+                 max_equilibration_windows: int):
+        super().__init__(initial_rate, p_max)
+        self.initial_rate = float(initial_rate)
+        self.decrease_factor = float(decrease_factor)
+        self.final_rate = float(final_rate)
+        self.max_equilibration_windows = int(max_equilibration_windows)
+        self.restarts = 0  # k
+        self.equilibration_count = 0
+        self.stage = 0
+        self.last_growth_rate = float(initial_rate)
+        self.equilibration_windows = 0
+
+    def after_window(self, stats: WindowStats) -> str | None:
+        p = stats.pressure
+        if self.rate > 0:
+            if p >= self.p_max:
+                if self.rate <= self.final_rate:
+                    return "final_rate"
+                self.last_growth_rate = self.rate
+                self.rate = 0.0
+                self.equilibration_count = 0
+                self.stage += 1
+        else:
+            self.equilibration_windows += 1
+            if p < self.p_max:
+                self.restarts += 1
+                # gamma_0 / f^k, not a running product, so no round-off accumulates
+                self.rate = self.initial_rate / self.decrease_factor**self.restarts
+                self.stage += 1
+            else:
+                self.equilibration_count += 1
+                if self.equilibration_count >= self.max_equilibration_windows:
+                    return "jammed"
+        return None
+
+    def extra_row(self) -> dict[str, Any]:
+        return {"stage": self.stage}
+
+    _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows")
+
+    def state(self) -> dict[str, Any]:
+        return {k: getattr(self, k) for k in self._STATE}
+
+    def load(self, state: dict[str, Any]) -> None:
+        for k in self._STATE:
+            setattr(self, k, type(getattr(self, k))(state[k]))
+
+    def counters(self) -> dict[str, Any]:
+        return {
+            "stages": self.stage + 1,
+            "rate_decreases": self.restarts,
+            "equilibration_windows": self.equilibration_windows,
+            "final_rate_reached": self.rate if self.rate > 0 else self.last_growth_rate,
+        }
+
+
+def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrease_factor: float = 2.0,
+                         final_rate: float = 1e-4, p_max: float = 1e12, max_equilibration_windows: int = 50,
+                         seed: int = 0, events_per_particle: int = 20, max_wall_time: float | None = None,
+                         checkpoint=None, checkpoint_interval: float = 300.0, progress_interval: float = 10.0,
+                         count_collisions_only: bool = False, temperature: float = DEFAULT_TEMPERATURE,
+                         callback: Callable[[int, WindowStats], None] | None = None,
+                         engine_options: dict[str, Any] | None = None) -> RunResult:
+    """Closest jammed configuration of ``packing`` and its density phi_J, by the paper's MLS algorithm.
+
+    Parameters
+    ----------
+    packing : Packing
+        Any start (d = 3): Poisson, LS, FB...; rescaled so that its closest pair touches.
+    initial_rate : float
+        gamma_0 > 0, first compression rate d rho / dt (paper: 10).
+    decrease_factor : float
+        f > 1: after each jam + re-equilibration the rate becomes gamma_0 / f^k (paper: 2).
+    final_rate : float
+        Stop when p >= p_max is reached at a rate <= this (> 0; paper: 1e-4).
+    p_max : float
+        Reduced-pressure threshold (> 1; paper: 1e12).
+    max_equilibration_windows : int
+        Zero-rate windows in a row with p >= p_max after which the packing counts as jammed (paper: 50).
+    seed, events_per_particle, max_wall_time, checkpoint, checkpoint_interval, progress_interval,
+    count_collisions_only, temperature, callback, engine_options :
+        As in :func:`spherejam.lubachevsky_stillinger.run_ls`. A ``max_wall_time`` stop keeps the checkpoint, so a
+        later call with the same checkpoint path continues the search.
+
+    Returns
+    -------
+    RunResult
+        The jammed packing (actual diameters; metadata ``algorithm="mls"``), per-window history (as LS plus
+        ``stage``) and counters: ``phi_J``, ``phi_initial``, ``stages``, ``rate_decreases``,
+        ``equilibration_windows``, ``final_rate_reached``, ``stop_reason`` ("final_rate", "jammed" or
+        "max_wall_time"), ``collisions``, ``events``, ``windows``, ``wall_time``.
+    """
+    validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
+                    max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
+                    progress_interval=progress_interval)
+    require(_finite(initial_rate) and initial_rate > 0, "initial_rate", initial_rate, "must be a finite number > 0")
+    require(_finite(decrease_factor) and decrease_factor > 1, "decrease_factor", decrease_factor,
+            "must be a finite number > 1")
+    require(_finite(final_rate) and final_rate > 0, "final_rate", final_rate, "must be a finite number > 0")
+    require(isinstance(max_equilibration_windows, int) and max_equilibration_windows >= 1,
+            "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
+    parameters = {
+        "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),
+        "final_rate": float(final_rate), "p_max": float(p_max),
+        "max_equilibration_windows": int(max_equilibration_windows), "seed": int(seed),
+        "events_per_particle": int(events_per_particle), "max_wall_time": max_wall_time,
+        "count_collisions_only": bool(count_collisions_only), "temperature": float(temperature),
+    }
+    controller = MLSController(initial_rate, decrease_factor, final_rate, p_max, max_equilibration_windows)
+    result = drive(packing, controller, algorithm="mls", parameters=parameters, seed=seed,
+                   events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
+                   temperature=temperature, target_phi=None, max_collisions=None, max_wall_time=max_wall_time,
+                   checkpoint=checkpoint, checkpoint_interval=checkpoint_interval,
+                   progress_interval=progress_interval, callback=callback, engine_options=engine_options)
+    result.counters["phi_J"] = result.counters["phi_final"]
+    result.packing.metadata["counters"] = result.counters
+    return result

@@ -1,0 +1,237 @@
+"""CALiPPSO: LP rows, cutoff guards, jamming from crystals and random starts, forces, failures, CLI, fits."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+
+import numpy as np
+import pytest
+
+from spherejam.calippso import (
+    cutoff_and_bound,
+    distributions,
+    fit_cumulative_power_law,
+    run_calippso,
+    solve_lp,
+)
+from spherejam.errors import InputError, OverlapError, SimulationError
+from spherejam.lp_constraints import constraint_rows, pair_vectors, pairs_in_cutoff
+from spherejam.packing import Packing, ball_volume
+
+
+def rsa_packing(n: int, phi: float, dim: int, seed: int = 0, size_ratio: float = 1.0) -> Packing:
+    """Random sequential addition up to packing fraction ``phi`` (overlap-free by construction).
+
+    Half the spheres have diameter 1 and half ``size_ratio`` (a bidisperse mix keeps d = 2 from crystallising).
+    The low-density start of the reference's random-init examples; brute force, fine for a few hundred spheres.
+    """
+    rng = np.random.default_rng(seed)
+    dia = np.where(np.arange(n) % 2 == 0, 1.0, size_ratio)
+    box = (float(np.sum(ball_volume(dia, dim))) / phi) ** (1.0 / dim)
+    pts = np.empty((n, dim))
+    k = 0
+    while k < n:
+        p = rng.random(dim) * box
+        d = pts[:k] - p
+        d -= box * np.round(d / box)
+        if k == 0 or np.all(np.einsum("ij,ij->i", d, d) >= (0.5 * (dia[:k] + dia[k])) ** 2):
+            pts[k] = p
+            k += 1
+    return Packing(pts, dia, box, {"algorithm": "rsa", "seed": seed})
+
+
+def fcc_packing(cells: int) -> Packing:
+    """Perfect FCC at close packing: 4 cells^3 unit spheres, lattice constant sqrt(2)."""
+    a = math.sqrt(2.0)
+    basis = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    cells_xyz = np.array(list(itertools.product(range(cells), repeat=3)), dtype=float)
+    pos = (cells_xyz[:, None, :] + basis[None, :, :]).reshape(-1, 3) * a
+    return Packing(pos, np.ones(len(pos)), cells * a)
+
+
+def assert_jammed(result, dim):
+    assert result.converged
+    assert result.isostatic, (result.n_contacts, result.n_stable)
+    assert result.n_contacts == dim * (result.n_stable - 1) + 1
+    assert result.force_balance_residual <= 1e-10
+    assert result.packing.check(1e-10).ok
+    assert result.packing.min_gap() > -1e-12
+    assert np.all(result.forces > 0)
+    assert result.history["sqrt_gamma_minus_1"][-1] <= 1e-12
+    assert result.history["max_displacement"][-1] <= 1e-9
+
+
+# --- LP rows ----------------------------------------------------------------------------------------------------
+
+
+def test_linearised_rows_are_inside_the_exact_constraint():
+    rng = np.random.default_rng(1)
+    m, dim = 2000, 3
+    rij = rng.normal(size=(m, dim))
+    sigma2 = rng.uniform(0.5, 1.5, m)
+    pi, pj = np.zeros(m, dtype=np.int64), np.ones(m, dtype=np.int64)
+    start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, 2)
+    assert np.all(np.diff(start) == 2 * dim + 1)
+    s = rng.uniform(-0.3, 0.3, size=(m, 2, dim))
+    gamma = rng.uniform(0.5, 2.0, m)
+    for k in range(m):
+        x = np.concatenate([s[k].ravel(), [gamma[k]]])
+        lhs = value[start[k]:start[k + 1]] @ x[index[start[k]:start[k + 1]]]
+        exact = np.sum((rij[k] + s[k, 0] - s[k, 1]) ** 2) - gamma[k] * sigma2[k]
+        if lhs <= rhs[k]:
+            assert exact >= -1e-12
+        # the linear row misses exactly |s_i - s_j|^2
+        assert exact == pytest.approx(rhs[k] - lhs + np.sum((s[k, 0] - s[k, 1]) ** 2), abs=1e-12)
+
+
+def test_pairs_in_cutoff_and_vectors_match_brute_force():
+    rng = np.random.default_rng(2)
+    pos = rng.random((200, 3)) * 6.0
+    i, j, r = pairs_in_cutoff(pos, 6.0, 1.7)
+    d = pos[:, None, :] - pos[None, :, :]
+    d -= 6.0 * np.round(d / 6.0)
+    dist = np.linalg.norm(d, axis=2)
+    ii, jj = np.nonzero(np.triu(dist < 1.7, 1))
+    assert set(zip(i.tolist(), j.tolist())) == set(zip(ii.tolist(), jj.tolist()))
+    np.testing.assert_allclose(pair_vectors(pos, 6.0, i, j), d[i, j], atol=1e-12)
+
+
+@pytest.mark.parametrize("dim", [2, 3, 4, 5])
+def test_cutoff_and_bound_guards(dim):
+    box = 12.0
+    for sg in (1.0, 1.000001, 1.0001, 1.01, 1.3, 2.0):
+        for radius in (0.5, 0.7, 1.0):
+            ell, sb, gmax, regime = cutoff_and_bound(sg, radius, 2.0, dim, box)
+            assert sb > 0 and ell <= box / 2 and gmax > 1.0
+            # a pair outside the cutoff cannot reach the inflated contact distance
+            assert ell - 2 * math.sqrt(dim) * sb >= 2 * radius * math.sqrt(gmax) - 1e-12
+            assert regime == (1 if sg - 1 > 5e-4 else 2 if sg - 1 > 1e-5 else 3)
+    with pytest.raises(InputError, match="box"):
+        cutoff_and_bound(1.0, 0.5, 2.0, 3, 1.9)
+
+
+# --- jamming ------------------------------------------------------------------------------------------------------
+
+
+def test_fcc_is_jammed_at_once():
+    fcc = fcc_packing(3)
+    result = run_calippso(fcc)
+    assert result.iterations == 1 and result.converged
+    assert result.history["sqrt_gamma_minus_1"][0] < 1e-12
+    assert result.history["max_displacement_all"][0] < 1e-9
+    assert result.packing.phi == pytest.approx(math.pi / math.sqrt(18), abs=1e-12)
+    assert result.packing.check(1e-10).ok
+    # FCC is hyperstatic with a degenerate dual: do not test contacts or rattlers
+
+
+def test_random_d3_n256_from_phi_03_jams_isostatic():
+    start = rsa_packing(256, 0.3, 3, seed=1)
+    result = run_calippso(start)
+    assert_jammed(result, 3)
+    assert 0.62 < result.phi < 0.645
+    assert result.n_rattlers / 256 < 0.05
+    s = result.summary()
+    assert s["is_isostatic"] == 1.0 and s["delta_phi"] == pytest.approx(result.phi - 0.3)
+    assert result.packing.metadata["algorithm"] == "calippso"
+    # contact forces balance on every stable particle and sum_ij f_ij n_ij = 0 overall
+    f = result.forces[:, None] * result.contact_vectors
+    net = np.zeros((256, 3))
+    np.add.at(net, result.pairs[:, 0], f)
+    np.add.at(net, result.pairs[:, 1], -f)
+    assert np.max(np.abs(net)) < 1e-9
+    # gaps are of non-contacts, positive, and the fit helpers return finite numbers
+    assert np.all(result.gaps > 0)
+    assert math.isfinite(distributions(result)["gap_gamma"])
+    # without the active-set shortcut (HiGHS only) the same packing comes out
+    again = run_calippso(start, active_set=False, max_iterations=result.iterations + 20)
+    assert again.phi == pytest.approx(result.phi, abs=1e-9)
+
+
+@pytest.mark.parametrize("dim,n,phi0,ratio", [(2, 128, 0.5, 1.4), (4, 128, 0.2, 1.0)])
+def test_other_dimensions_converge(dim, n, phi0, ratio):
+    result = run_calippso(rsa_packing(n, phi0, dim, seed=3, size_ratio=ratio))
+    assert result.converged
+    assert result.packing.check(1e-10).ok
+    assert result.force_balance_residual <= 1e-10
+    if dim >= 3:
+        assert result.isostatic
+    assert result.phi > phi0
+
+
+# --- failures -----------------------------------------------------------------------------------------------------
+
+
+def test_overlapping_start_is_rejected():
+    p = rsa_packing(64, 0.3, 3, seed=0)
+    bad = p.replace(diameters=p.diameters * 1.5)
+    with pytest.raises(OverlapError, match="CALiPPSO input"):
+        run_calippso(bad)
+
+
+def test_failed_lp_raises_clear_error():
+    start = rsa_packing(64, 0.3, 3, seed=0)
+    with pytest.raises(SimulationError, match="LP failed at iteration 0"):
+        run_calippso(start, solver_options={"ipm_iteration_limit": 1, "simplex_iteration_limit": 1})
+
+
+def test_infeasible_lp_is_reported():
+    # an overlapping pair with no room to move: Gamma >= 1 cannot be reached
+    rij = np.array([[0.9, 0.0, 0.0]])
+    with pytest.raises(SimulationError, match="Infeasible"):
+        solve_lp(rij, np.array([1.0]), np.array([0]), np.array([1]), 2, s_bound=1e-3, pinned=1,
+                 gamma_bounds=(1.0, 4.0))
+
+
+def test_bad_parameters_name_the_field():
+    p = fcc_packing(3)
+    with pytest.raises(InputError, match="gamma_tolerance"):
+        run_calippso(p, gamma_tolerance=-1.0)
+    with pytest.raises(InputError, match="s_bound"):
+        run_calippso(p, s_bound=2.0)
+
+
+# --- resume, CLI, fits --------------------------------------------------------------------------------------------
+
+
+def test_checkpoint_resume_reaches_the_same_packing(tmp_path):
+    start = rsa_packing(96, 0.45, 3, seed=5)
+    ref = run_calippso(start)
+    ckpt = tmp_path / "c.h5"
+    part = run_calippso(start, max_iterations=3, checkpoint=ckpt)
+    assert not part.converged and ckpt.exists()
+    done = run_calippso(start, checkpoint=ckpt)
+    assert done.converged and not ckpt.exists()
+    assert done.iterations > 3
+    assert done.phi == pytest.approx(ref.phi, abs=1e-9)
+
+
+def test_cli_calippso(tmp_path, capsys):
+    from spherejam.cli import main
+    from spherejam.packing_io import read_packing, write_packing
+
+    src, out = tmp_path / "in.h5", tmp_path / "out.h5"
+    write_packing(src, rsa_packing(96, 0.45, 3, seed=5))
+    assert main(["calippso", str(src), "-o", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["is_isostatic"] == 1.0
+    jammed = read_packing(out)
+    assert jammed.metadata["algorithm"] == "calippso"
+    assert jammed.phi == pytest.approx(summary["phi"])
+
+
+def test_power_law_fit_recovers_exponent():
+    rng = np.random.default_rng(0)
+    a_true = 0.6  # cumulative ~ x^0.6, i.e. gap exponent gamma = 0.4
+    x = rng.random(20000) ** (1 / a_true) * 1e-2
+    a, se, k = fit_cumulative_power_law(x, 1e-6, 1e-2)
+    assert abs(a - a_true) < 4 * se and se < 0.02
+    assert k == np.count_nonzero(x >= 1e-6)
+
+
+def test_mls_output_is_certified():
+    cj = pytest.importorskip("spherejam.closest_jamming")
+    if not hasattr(cj, "find_closest_jamming"):
+        pytest.skip("find_closest_jamming not available")
+    pytest.skip("MLS certification lives in benchmarks/bench_calippso.py --mls (MLS API still changing)")

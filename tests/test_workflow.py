@@ -1,0 +1,142 @@
+"""The Snakemake workflow: dry runs of every config, schema errors, and a tiny end-to-end run."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = [sys.executable, "-m", "snakemake"]
+
+
+def snakemake(*args, cwd=ROOT, timeout=1200):
+    return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.mark.parametrize("config", ["config.yaml", "tiny.yaml", "paper.yaml"])
+def test_dry_run(config, tmp_path):
+    cfg = yaml.safe_load((ROOT / "config" / config).read_text())
+    cfg["results"] = str(tmp_path / "results")
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    r = snakemake("-n", "--quiet", "rules", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
+    assert r.returncode == 0, r.stderr[-3000:]
+
+
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        ({"n": 1}, "n"),
+        ({"sigmas": [-0.1]}, "sigmas"),
+        ({"unknown_key": 3}, "unknown_key"),
+        ({"ls": {"rates": [0.0]}}, "rates"),
+        ({"mls": {"decrease_factor": 1.0}}, "decrease_factor"),
+    ],
+)
+def test_bad_config_stops_before_any_job(change, needle, tmp_path):
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    cfg["results"] = str(tmp_path / "results")
+    cfg.update(change)
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(cfg))
+    r = snakemake("-n", "--cores", "1", "--configfile", str(tmp_path / "bad.yaml"))
+    assert r.returncode != 0
+    assert needle in r.stdout + r.stderr
+    assert not (tmp_path / "results").exists()
+
+
+def test_lint_is_clean():
+    r = snakemake("--lint", "--cores", "1")
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """Run config/tiny.yaml end to end once (about a minute on 2 cores)."""
+    out = tmp_path_factory.mktemp("tiny")
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    cfg["results"] = str(out / "results")
+    (out / "tiny.yaml").write_text(yaml.safe_dump(cfg))
+    r = snakemake("--cores", "2", "--configfile", str(out / "tiny.yaml"), timeout=1500)
+    assert r.returncode == 0, r.stderr[-5000:]
+    return out / "results", out / "tiny.yaml"
+
+
+def test_tiny_end_to_end(tiny_run):
+    from spherejam.dataset import dataset_config, open_dataset
+    from spherejam.packing_io import read_packing
+
+    results, _ = tiny_run
+    ds = open_dataset(results / "dataset.nc")
+    cfg = dataset_config(ds)
+    assert ds.sizes["packing"] == 2 * len(cfg["sigmas"]) * 5
+    assert ds.sizes["grid_run"] == 2
+    # every packing was jammed by MLS, at or above its initial density
+    assert np.all(np.isfinite(ds.phi_J.values))
+    assert np.all(ds.phi_J.values >= ds.phi.values - 1e-12)
+    assert np.all(ds.pressure_J.values >= 1e11)
+    assert np.all((ds.phi_J.values > 0.55) & (ds.phi_J.values < 0.74))
+    # provenance travels with the dataset
+    for key in ("config", "config_hash", "git_commit", "package_versions", "created"):
+        assert ds.attrs[key]
+    assert ds.phi_J.attrs["units"] == "1" and ds.phi_J.attrs["long_name"]
+    # the files behind one entry are valid packings whose phi matches the dataset
+    key = str(ds.key.values[0])
+    jammed = read_packing(results / "packings" / key / "jammed.h5")
+    assert jammed.phi == pytest.approx(float(ds.phi_J.values[0]), rel=1e-12)
+    for name in ("table2", "table3", "table4"):
+        for ext in ("csv", "md", "tex"):
+            assert (results / "tables" / f"{name}.{ext}").stat().st_size > 0
+    for name in ("fig2", "fig3", "fig4", "fig5", "fig7", "structure", "forces"):
+        for ext in ("png", "pdf"):
+            assert (results / "figures" / f"{name}.{ext}").stat().st_size > 1000
+    # no temporary or checkpoint files are left behind
+    assert not list(results.rglob("*.tmp*"))
+
+
+def test_single_figure_rebuild_does_not_rerun_simulations(tiny_run):
+    results, cfg = tiny_run
+    target = results / "figures" / "fig4.pdf"
+    target.unlink()
+    r = snakemake("--cores", "2", "--configfile", str(cfg), str(target), "--dry-run")
+    assert r.returncode == 0
+    planned = r.stdout
+    assert "figure" in planned and "jam" not in planned.replace("jammed", "") and "generate_ls" not in planned
+    r = snakemake("--cores", "2", "--configfile", str(cfg), str(target))
+    assert r.returncode == 0 and target.exists()
+
+
+def test_browse_filters_and_exports(tiny_run, tmp_path):
+    results, _ = tiny_run
+    out = tmp_path / "sel.csv"
+    r = subprocess.run(
+        [sys.executable, "-m", "spherejam.cli", "browse", str(results / "dataset.nc"), "--protocol", "ls",
+         "--sigma", "0.3", "--csv", str(out), "--figure", "fig5", "-o", str(tmp_path / "fig5")],
+        capture_output=True, text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    import pandas as pd
+
+    df = pd.read_csv(out)
+    assert len(df) == 5 and set(df.protocol) == {"ls"} and set(df.sigma) == {0.3}
+    assert (tmp_path / "fig5.png").exists()
+
+
+def test_killed_job_rerun_completes(tiny_run, tmp_path):
+    """A run interrupted mid-job leaves no partial output; the rerun completes it."""
+    results, cfg = tiny_run
+    work = tmp_path / "copy"
+    shutil.copytree(results, work / "results")
+    c = yaml.safe_load(Path(cfg).read_text())
+    c["results"] = str(work / "results")
+    (work / "c.yaml").write_text(yaml.safe_dump(c))
+    key = "ls/sigma0.3/rate0.5/r0"
+    jammed = work / "results" / "packings" / key / "jammed.h5"
+    jammed.unlink()  # as if the MLS job had been killed before its atomic rename
+    (work / "results" / "dataset.nc").unlink()
+    r = snakemake("--cores", "2", "--configfile", str(work / "c.yaml"), "--rerun-triggers", "mtime")
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert jammed.exists() and (work / "results" / "dataset.nc").exists()
