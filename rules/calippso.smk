@@ -2,6 +2,8 @@
 
 
 rule certify:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         f"{PACKING}/jammed.h5",
     output:

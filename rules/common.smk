@@ -1,10 +1,11 @@
 # Config validation, the experiment design and the path patterns every rule file uses.
 import json
+import os
 
 from snakemake.utils import validate
 
 from spherejam import cluster_resources
-from spherejam.experiment import Experiment, config_hash, fmt, parse_run
+from spherejam.experiment import Experiment, parse_run
 
 validate(config, workflow.source_path("../config/schema.yaml"))
 
@@ -53,3 +54,15 @@ def resources_for(stage, **fixed):
 
 def _rate(wildcards):
     return float(wildcards.rate) if hasattr(wildcards, "rate") else None
+
+
+def dataset_inputs(wildcards):
+    files = []
+    for run in EXP.runs():
+        files += [str(EXP.path(run, "initial")), str(EXP.path(run, "jammed"))]
+        if config["analysis"]["enabled"]:
+            files.append(str(EXP.path(run, "structure")))
+        if config["calippso"]["enabled"]:
+            files.append(str(EXP.path(run, "calippso")))
+    files += [str(EXP.grid_path(g)) for g in EXP.grid_runs()]
+    return files

@@ -1,33 +1,23 @@
 # The results database: one xarray dataset (netCDF, h5netcdf engine) with every run's scalars and provenance.
 
 
-def dataset_inputs(wildcards):
-    files = []
-    for run in EXP.runs():
-        files += [str(EXP.path(run, "initial")), str(EXP.path(run, "jammed"))]
-        if config["analysis"]["enabled"]:
-            files.append(str(EXP.path(run, "structure")))
-        if config["calippso"]["enabled"]:
-            files.append(str(EXP.path(run, "calippso")))
-    files += [str(EXP.grid_path(g)) for g in EXP.grid_runs()]
-    return files
-
-
 rule experiment_manifest:
+    conda:
+        "../envs/spherejam.yaml"
     output:
         f"{R}/experiment.json",
     params:
-        config_hash=config_hash(config),
+        config=json.dumps(config, sort_keys=True),
     log:
         f"{R}/logs/experiment_manifest.log",
     localrule: True
-    run:
-        from spherejam.dataset import write_manifest
-
-        write_manifest(config, output[0])
+    shell:
+        "spherejam manifest --config-json {params.config:q} -o {output} > {log} 2>&1"
 
 
 rule dataset:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         manifest=f"{R}/experiment.json",
         runs=dataset_inputs,

@@ -3,6 +3,8 @@
 
 
 rule figure:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         DATASET,
     output:
@@ -10,8 +12,10 @@ rule figure:
         pdf=f"{R}/figures/{{name}}.pdf",
     wildcard_constraints:
         name="|".join(FIGURE_NAMES),
+    params:
+        stem=lambda w, output: os.path.splitext(output.png)[0],
     log:
         f"{R}/logs/figures/{{name}}.log",
     localrule: True
     shell:
-        "spherejam figure {wildcards.name} {input} -o {R}/figures/{wildcards.name} > {log} 2>&1"
+        "spherejam figure {wildcards.name} {input} -o {params.stem} > {log} 2>&1"

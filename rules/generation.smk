@@ -2,6 +2,8 @@
 
 
 rule generate_ls:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         f"{R}/packings/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}/poisson.h5",
     output:
@@ -22,6 +24,8 @@ rule generate_ls:
 
 
 rule generate_fb:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         f"{R}/packings/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}/poisson.h5",
     output:

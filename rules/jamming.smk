@@ -4,6 +4,8 @@ MLS = config["mls"]
 
 
 rule jam:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         f"{PACKING}/initial.h5",
     output:

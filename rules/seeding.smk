@@ -2,6 +2,8 @@
 
 
 rule seed:
+    conda:
+        "../envs/spherejam.yaml"
     output:
         f"{PACKING}/poisson.h5",
     params:

@@ -2,6 +2,8 @@
 
 
 rule tables:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         DATASET,
     output:
@@ -11,8 +13,10 @@ rule tables:
             category="Tables",
         ),
         expand(f"{R}/tables/{{name}}.{{ext}}", name=TABLE_NAMES, ext=["md", "tex"]),
+    params:
+        outdir=lambda w, output: os.path.dirname(output[0]),
     log:
         f"{R}/logs/tables.log",
     localrule: True
     shell:
-        "spherejam tables {input} --outdir {R}/tables > {log} 2>&1"
+        "spherejam tables {input} --outdir {params.outdir} > {log} 2>&1"

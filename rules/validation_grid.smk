@@ -3,6 +3,8 @@
 
 
 rule jam_validation_grid:
+    conda:
+        "../envs/spherejam.yaml"
     input:
         f"{R}/packings/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}/initial.h5",
     output:

@@ -89,7 +89,7 @@ def test_linearised_rows_are_inside_the_exact_constraint():
 def test_pairs_in_cutoff_and_vectors_match_brute_force():
     rng = np.random.default_rng(2)
     pos = rng.random((200, 3)) * 6.0
-    i, j, r = pairs_in_cutoff(pos, 6.0, 1.7)
+    i, j, _ = pairs_in_cutoff(pos, 6.0, 1.7)
     d = pos[:, None, :] - pos[None, :, :]
     d -= 6.0 * np.round(d / 6.0)
     dist = np.linalg.norm(d, axis=2)

@@ -16,7 +16,8 @@ the configuration in its initial basin; slow ones at the end make the high press
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from .errors import require
 from .lubachevsky_stillinger import (

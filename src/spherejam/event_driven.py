@@ -275,8 +275,7 @@ def build_lists(st, box, rho_list, skin, m, cap):
                                 count += 1
                         j = nxt[j]
         nnb[i] = min(count, cap)
-        if count > max_count:
-            max_count = count
+        max_count = max(max_count, count)
     return refs, nbr, nnb, head, nxt, prv, cellof, max_count
 
 
@@ -469,7 +468,6 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nn
     ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
     Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
     """
-    n = st.shape[0]
     half = 0.5 * box
     while True:
         i = heap[0]
@@ -544,6 +542,5 @@ def min_listed_ratio(st, nbr, nnb, box, rho):
             ry = fold(st[j, 1] - st[i, 1], box, half)
             rz = fold(st[j, 2] - st[i, 2], box, half)
             h = np.sqrt(rx * rx + ry * ry + rz * rz) / (rho * 0.5 * (st[i, 7] + st[j, 7]))
-            if h < best:
-                best = h
+            best = min(best, h)
     return best

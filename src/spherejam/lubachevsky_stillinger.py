@@ -25,9 +25,10 @@ import hashlib
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -137,7 +138,7 @@ class LSEngine:
         skin = min(skin, limit - rho_list * dmax)
         cell_side = rho_list * dmax + skin
         m = int(box // cell_side)
-        m = min(m, int(math.ceil((2.0 * n) ** (1.0 / 3.0))))
+        m = min(m, math.ceil((2.0 * n) ** (1.0 / 3.0)))
         if m < 3:
             m = 1
         cap = 16 if self.refs is None else self.nbr.shape[1]
@@ -407,8 +408,6 @@ def drive(packing: Packing, controller: Controller, *, algorithm: str, parameter
             f"collisions={totals['collisions']:,} ({totals['collisions'] / max(wall, 1e-9):,.0f}/s)"
             + (f" stop={stop}" if stop else "")
         )
-        if callback is not None:
-            callback(totals["windows"], stats)
         if ckpt is not None and (stop is None or stop == "max_wall_time") and (
             time.perf_counter() - last_ckpt >= checkpoint_interval or stop == "max_wall_time"
         ):
@@ -420,6 +419,8 @@ def drive(packing: Packing, controller: Controller, *, algorithm: str, parameter
                      "phi_initial": phi_initial}
             save_checkpoint(ckpt, controller.kind, arrays, attrs)
             last_ckpt = time.perf_counter()
+        if callback is not None:
+            callback(totals["windows"], stats)
 
     wall = wall_before + time.perf_counter() - wall0
     phi_final = phi_nominal * engine.rho0**3

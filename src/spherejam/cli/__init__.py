@@ -17,7 +17,7 @@ from .. import __version__
 from ..errors import InputError, PackingFileError, SpherejamError
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
-COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb")
+COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls")
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1

@@ -8,6 +8,11 @@ from . import finite_float
 
 
 def register(sub) -> None:
+    p = sub.add_parser("manifest", help="record a validated experiment config (JSON) for the dataset builder")
+    p.add_argument("--config-json", required=True, help="the workflow's config as a JSON string")
+    p.add_argument("-o", "--output", type=Path, required=True)
+    p.set_defaults(func=_manifest)
+
     p = sub.add_parser("dataset", help="assemble results/dataset.nc from an experiment manifest")
     p.add_argument("manifest", type=Path, help="experiment.json written by the workflow")
     p.add_argument("-o", "--output", type=Path, required=True, help="output netCDF file")
@@ -37,6 +42,21 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, help="figure output stem (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
     p.set_defaults(func=_browse)
+
+
+def _manifest(args) -> int:
+    import json
+
+    from ..dataset import write_manifest
+    from ..errors import InputError
+
+    try:
+        config = json.loads(args.config_json)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"--config-json: not valid JSON ({exc})") from None
+    write_manifest(config, args.output)
+    print(f"{args.output}: experiment with {len(config.get('sigmas', []))} sigmas, N = {config.get('n')}")
+    return 0
 
 
 def _dataset(args) -> int:

@@ -1,0 +1,85 @@
+"""Science checks of the closest-jamming (MLS) search (issue 4), too slow for the unit tests.
+
+For each seed: Poisson packing -> LS at a fast rate (1/gamma < 5) -> MLS with the paper's parameters; optionally
+also LS at a slow rate (1/gamma >= 100) -> MLS. Prints, per packing, phi after LS, phi_J, the MLS stages, collisions,
+wall time and the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
+:func:`spherejam.contacts.analyze_contacts`, and the reference code's fixed 1e-7), then a summary against the paper's
+band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N = 1e4.
+
+    python benchmarks/mls_science.py --n 1000 --seeds 1 2 3 4 5 --slow-seeds 1
+    python benchmarks/mls_science.py --n 10000 --seeds 1          # ~0.5-1 h per packing on one core
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from spherejam.closest_jamming import find_closest_jamming
+from spherejam.contacts import analyze_contacts
+from spherejam.lubachevsky_stillinger import run_ls
+from spherejam.seeding import poisson_packing
+
+PAPER_BAND_SIGMA0 = (0.6356, 0.6406)
+
+
+def one(n: int, sigma: float, seed: int, rate: float) -> dict:
+    start = poisson_packing(n, sigma, seed=seed)
+    t0 = time.perf_counter()
+    ls = run_ls(start, rate, seed=seed, progress_interval=1e9)
+    t1 = time.perf_counter()
+    mls = find_closest_jamming(ls.packing, seed=seed, progress_interval=60.0)
+    t2 = time.perf_counter()
+    auto = analyze_contacts(mls.packing).coordination
+    fixed = analyze_contacts(mls.packing, contact_tolerance=1e-7).coordination
+    c = mls.counters
+    return {
+        "n": n, "sigma": sigma, "seed": seed, "ls_rate": rate, "phi_ls": ls.packing.phi,
+        "ls_collisions": ls.counters["collisions"], "ls_wall": t1 - t0,
+        "phi_J": c["phi_J"], "stages": c["stages"], "stop": c["stop_reason"], "mls_collisions": c["collisions"],
+        "mls_wall": t2 - t1, "pressure": mls.packing.metadata["reduced_pressure"],
+        "z_auto": auto.z_nonrattler, "tol_auto": auto.contact_tolerance, "rattlers_auto": auto.rattler_fraction,
+        "excess_auto": auto.isostatic_excess, "z_1e-7": fixed.z_nonrattler, "rattlers_1e-7": fixed.rattler_fraction,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--sigma", type=float, default=0.0)
+    ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3, 4, 5])
+    ap.add_argument("--fast-rate", type=float, default=0.5, help="LS rate of the fast packings (1/gamma = 2)")
+    ap.add_argument("--slow-seeds", type=int, nargs="*", default=[])
+    ap.add_argument("--slow-rate", type=float, default=0.01, help="LS rate of the slow packings (1/gamma = 100)")
+    ap.add_argument("--json", help="append one JSON line per packing to this file")
+    args = ap.parse_args()
+
+    rows = []
+    for label, rate, seeds in (("fast", args.fast_rate, args.seeds), ("slow", args.slow_rate, args.slow_seeds)):
+        for seed in seeds:
+            row = dict(one(args.n, args.sigma, seed, rate), kind=label)
+            rows.append(row)
+            print(f"{label} N={row['n']} sigma={row['sigma']} seed={seed} 1/gamma={1 / rate:g}: "
+                  f"phi_LS={row['phi_ls']:.5f} phi_J={row['phi_J']:.5f} (+{row['phi_J'] - row['phi_ls']:.5f}) "
+                  f"stages={row['stages']} stop={row['stop']} MLS collisions={row['mls_collisions']:,} "
+                  f"wall={row['mls_wall']:.0f}s p={row['pressure']:.3g} Z={row['z_auto']:.3f} "
+                  f"(tol {row['tol_auto']:.1e}, rattlers {row['rattlers_auto']:.3f}, K'-K0={row['excess_auto']}) "
+                  f"Z(1e-7)={row['z_1e-7']:.3f}", flush=True)
+            if args.json:
+                with open(args.json, "a") as f:
+                    f.write(json.dumps(row) + "\n")
+    fast = [r["phi_J"] for r in rows if r["kind"] == "fast"]
+    if fast:
+        lo, hi = PAPER_BAND_SIGMA0
+        print(f"fast: phi_J mean {np.mean(fast):.5f} min {np.min(fast):.5f} max {np.max(fast):.5f} "
+              f"(paper sigma=0, N=1e4: [{lo}, {hi}])")
+    slow = [r["phi_J"] - r["phi_ls"] for r in rows if r["kind"] == "slow"]
+    if slow:
+        print(f"slow: phi_J - phi_LS = {', '.join(f'{d:.5f}' for d in slow)}")
+
+
+if __name__ == "__main__":
+    main()

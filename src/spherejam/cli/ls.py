@@ -1,0 +1,84 @@
+"""``spherejam ls | mls``: Lubachevsky–Stillinger compression and the closest-jamming (MLS) search."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import finite_float, int_at_least, seed_int
+
+
+def _common(p) -> None:
+    p.add_argument("input", type=Path, help="start packing (.h5): Poisson, LS, FB, ...")
+    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("--p-max", type=finite_float, default=1e12, help="reduced-pressure threshold (default 1e12)")
+    p.add_argument("--seed", type=seed_int, default=0, help="seed of the initial velocities (default 0)")
+    p.add_argument("--events-per-particle", type=int_at_least(1), default=20,
+                   help="window length in events per particle (default 20)")
+    p.add_argument("--count-collisions", action="store_true",
+                   help="count only collisions towards the window length (default: all events, as the reference)")
+    p.add_argument("--max-wall-time", type=finite_float, default=None, help="stop after this many seconds")
+    p.add_argument("--checkpoint", type=Path, default=None,
+                   help="checkpoint file: saved periodically, resumed from if present, removed when done")
+    p.add_argument("--checkpoint-interval", type=finite_float, default=300.0,
+                   help="seconds between checkpoints (default 300)")
+    p.add_argument("--progress-interval", type=finite_float, default=10.0,
+                   help="seconds between progress lines (default 10)")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("ls", help="compress with the Lubachevsky-Stillinger algorithm until p >= p_max")
+    _common(p)
+    p.add_argument("--rate", type=finite_float, required=True, help="compression rate gamma = d rho/dt (>= 0)")
+    p.add_argument("--target-phi", type=finite_float, default=None, help="stop at this packing fraction")
+    p.add_argument("--max-collisions", type=int_at_least(1), default=None, help="stop after this many collisions")
+    p.set_defaults(func=_ls)
+
+    p = sub.add_parser("mls", help="closest jammed configuration (modified LS search of the paper)")
+    _common(p)
+    p.add_argument("--initial-rate", type=finite_float, default=10.0, help="first compression rate (default 10)")
+    p.add_argument("--decrease-factor", type=finite_float, default=2.0, help="rate divisor per stage (default 2)")
+    p.add_argument("--final-rate", type=finite_float, default=1e-4, help="termination rate (default 1e-4)")
+    p.add_argument("--max-equilibration-windows", type=int_at_least(1), default=50,
+                   help="zero-rate windows with p >= p_max that mean 'jammed' (default 50)")
+    p.set_defaults(func=_mls)
+
+
+def _options(args) -> dict:
+    return {
+        "p_max": args.p_max, "seed": args.seed, "events_per_particle": args.events_per_particle,
+        "count_collisions_only": args.count_collisions, "max_wall_time": args.max_wall_time,
+        "checkpoint": args.checkpoint, "checkpoint_interval": args.checkpoint_interval,
+        "progress_interval": args.progress_interval,
+    }
+
+
+def _finish(args, result, label: str) -> int:
+    from ..packing_io import write_packing
+
+    write_packing(args.output, result.packing, history=result.history)
+    c = result.counters
+    print(f"{args.output}: {label} phi={result.packing.phi:.6f} p={result.packing.metadata['reduced_pressure']:.4g} "
+          f"windows={c['windows']} collisions={c['collisions']} wall={c['wall_time']:.1f}s stop={c['stop_reason']}")
+    return 0
+
+
+def _ls(args) -> int:
+    from ..lubachevsky_stillinger import run_ls
+    from ..packing_io import read_packing
+
+    packing = read_packing(args.input)
+    result = run_ls(packing, args.rate, target_phi=args.target_phi, max_collisions=args.max_collisions,
+                    **_options(args))
+    return _finish(args, result, "LS")
+
+
+def _mls(args) -> int:
+    from ..closest_jamming import find_closest_jamming
+    from ..packing_io import read_packing
+
+    packing = read_packing(args.input)
+    result = find_closest_jamming(
+        packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,
+        max_equilibration_windows=args.max_equilibration_windows, **_options(args),
+    )
+    return _finish(args, result, f"MLS stages={result.counters['stages']}")

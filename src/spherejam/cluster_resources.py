@@ -1,0 +1,223 @@
+"""Cluster resources of one workflow job: SLURM time limit, memory and cores from the protocol, N and the rates.
+
+The workflow's rules call these functions from their ``resources:`` (e.g. ``runtime=lambda w, attempt:
+runtime_minutes("ls", n, rate=float(w.rate), attempt=attempt)``), so they must stay cheap and import nothing heavy
+(no numpy, no numba): Snakemake evaluates them for every job when it builds the DAG.
+
+Cost model (expected CPU seconds of one job = start-up + work / speed), calibrated on one core of the 2-core
+development machine (AMD EPYC VM; figures in docs/cluster.md and reference-benchmark.md):
+
+* LS, collisions per particle from a Poisson start to p = 1e12 at compression rate gamma (the paper's gamma):
+  ``300 + 2500 (1e-2 / gamma)^0.92``. Measured (N = 1000, sigma = 0): 523 / 2533 / 20177 at gamma = 1e-1 / 1e-2 /
+  1e-3 (the reference C++ code: 495 / 2367 / 18525); the number per particle hardly depends on N.
+* Event-driven speed (LS and MLS): ``6e5 (N / 1000)^-0.17`` collisions per second; measured 5.4-6.4e5/s at N = 1000
+  and 4.1e5/s at N = 10^4 (the reference code: 2.8e5 and 2.2e5).
+* MLS (gamma_0 -> gamma_final, decrease factor f): one LS-like compression per rate gamma_k = gamma_0 / f^k, down to
+  the first rate <= gamma_final. The sum of the LS costs of all those rates over-estimates what the reference code
+  needed (N = 500 / 1000: 7.1e4 / 1.2e5 collisions per particle against a sum of 4.6e5), because a phase ends early
+  when the packing is still jammed; half the sum is used.
+* FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
+  iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
+* CALiPPSO: ~20 LPs (5-7 from LS/MLS starts, more from loose ones) of ``2 s (N / 1024)^1.5`` each (HiGHS IPM).
+* seed and analyze: seconds at N = 10^4 (start-up dominates).
+
+The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
+[floor, ceiling], and multiplied by the attempt number: a job killed at its limit is submitted again by Snakemake
+(``restart-times``), resumes from its checkpoint, and gets a longer limit each time. The ceiling (default 24 h, a
+common partition limit) can be changed with the environment variable ``SPHEREJAM_MAX_RUNTIME`` (minutes), read on
+the submitting node; a job longer than the ceiling simply continues over several submissions.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import os
+from dataclasses import dataclass
+
+from .errors import InputError, require
+
+#: Stages (rule kinds) with a cost model.
+STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
+
+#: LS collisions per particle to p = 1e12: LS_BASE + LS_AT_1E2 * (1e-2 / gamma)^LS_EXPONENT.
+LS_BASE = 300.0
+LS_AT_1E2 = 2500.0
+LS_EXPONENT = 0.92
+#: Event-driven collisions per CPU second at N = 1000, and its decrease with N (cache misses).
+COLLISIONS_PER_SECOND = 6.0e5
+SPEED_EXPONENT = -0.17
+#: Fraction of the summed per-rate LS costs that an MLS run needs (see the module docstring).
+MLS_PHASE_FRACTION = 0.5
+#: FB: iterations = FB_BASE + FB_PER_INVERSE_RATE / gamma, seconds per iteration = FB_SECONDS * N.
+FB_BASE = 30.0
+FB_PER_INVERSE_RATE = 0.13
+FB_SECONDS = 3.5e-7
+#: CALiPPSO: LP iterations, and seconds of one LP at N = 1024 (HiGHS interior point, d = 3).
+CALIPPSO_ITERATIONS = 20
+CALIPPSO_LP_SECONDS = 2.0
+CALIPPSO_EXPONENT = 1.5
+#: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
+ANALYZE_SECONDS = 1e-3
+#: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
+STARTUP_SECONDS = 90.0
+#: Time limit = STARTUP + SAFETY x expected work.
+SAFETY = 3.0
+#: Smallest time limit per stage, minutes (seed/analyze are grouped, and a group asks for the sum).
+FLOOR_MINUTES = {"seed": 3, "analyze": 5, "fb": 10, "ls": 10, "mls": 15, "calippso": 10}
+#: Default largest time limit, minutes; override with $SPHEREJAM_MAX_RUNTIME.
+MAX_RUNTIME_MINUTES = 24 * 60
+#: Memory: a job runs `snakemake` (the SLURM job step) and `spherejam` side by side, ~200 MB each at N = 10^4.
+BASE_MEM_MB = 1000
+#: Extra memory per particle, MB (event-driven state and neighbour lists are ~1 kB per particle).
+MEM_PER_PARTICLE_MB = {"seed": 0.005, "ls": 0.01, "fb": 0.01, "mls": 0.01, "analyze": 0.05, "calippso": 0.5}
+
+
+@dataclass(frozen=True)
+class JobEstimate:
+    """Resources of one job: what SLURM is asked for, and the expected CPU time behind it."""
+
+    runtime: int  # time limit, minutes
+    mem_mb: int
+    cpus_per_task: int
+    cpu_seconds: float  # expected CPU seconds, without margin (for sizing a whole run)
+
+
+def _check_stage(stage: str) -> None:
+    require(stage in STAGES, "stage", stage, f"must be one of {', '.join(STAGES)}")
+
+
+def _check_n(n) -> int:
+    ok = not isinstance(n, bool) and hasattr(n, "__index__") and operator.index(n) >= 2
+    require(ok, "n", n, "must be an integer >= 2")
+    return operator.index(n)
+
+
+def _positive(field: str, value) -> float:
+    require(isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0,
+            field, value, "must be a finite number > 0")
+    return float(value)
+
+
+def collisions_per_second(n: int) -> float:
+    """Expected event-driven (LS/MLS) speed at N particles, collisions per CPU second."""
+    n = _check_n(n)
+    return COLLISIONS_PER_SECOND * (max(n, 1000) / 1000.0) ** SPEED_EXPONENT
+
+
+def ls_collisions_per_particle(rate: float) -> float:
+    """Collisions per particle of an LS compression at rate gamma from a Poisson start to p = 1e12."""
+    rate = _positive("rate", rate)
+    return LS_BASE + LS_AT_1E2 * (1e-2 / rate) ** LS_EXPONENT
+
+
+def mls_rates(initial_rate: float = 10.0, decrease_factor: float = 2.0, final_rate: float = 1e-4) -> list[float]:
+    """The MLS rate ladder gamma_0 / f^k, k = 0, 1, ..., ending with the first rate <= gamma_final."""
+    g0 = _positive("initial_rate", initial_rate)
+    f = _positive("decrease_factor", decrease_factor)
+    gf = _positive("final_rate", final_rate)
+    require(f > 1.0, "decrease_factor", decrease_factor, "must be > 1")
+    rates = [g0]
+    while rates[-1] > gf:
+        rates.append(g0 / f ** len(rates))
+    return rates
+
+
+def mls_collisions_per_particle(initial_rate: float = 10.0, decrease_factor: float = 2.0,
+                                final_rate: float = 1e-4) -> float:
+    """Expected collisions per particle of one MLS run (paper defaults: 10 -> 1e-4, factor 2)."""
+    ladder = mls_rates(initial_rate, decrease_factor, final_rate)
+    return MLS_PHASE_FRACTION * sum(ls_collisions_per_particle(g) for g in ladder)
+
+
+def fb_iterations(rate: float) -> float:
+    """Expected FB iterations at contraction rate gamma (dimensionless, per iteration)."""
+    rate = _positive("rate", rate)
+    require(rate < 1.0, "rate", rate, "must be < 1 for FB")
+    return FB_BASE + FB_PER_INVERSE_RATE / rate
+
+
+def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: float = 10.0,
+                decrease_factor: float = 2.0, final_rate: float = 1e-4) -> float:
+    """Expected CPU seconds of the work of one job (no start-up, no margin).
+
+    ``rate`` is the generation rate gamma of an ``ls`` or ``fb`` job (required there, ignored elsewhere);
+    ``initial_rate``, ``decrease_factor`` and ``final_rate`` describe an ``mls`` job.
+    """
+    _check_stage(stage)
+    n = _check_n(n)
+    if stage in ("ls", "fb"):
+        require(rate is not None, "rate", rate, f"is required for stage {stage!r}")
+    if stage == "ls":
+        return n * ls_collisions_per_particle(rate) / collisions_per_second(n)
+    if stage == "fb":
+        return fb_iterations(rate) * FB_SECONDS * n
+    if stage == "mls":
+        return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate) / collisions_per_second(n)
+    if stage == "calippso":
+        return CALIPPSO_ITERATIONS * CALIPPSO_LP_SECONDS * (n / 1024.0) ** CALIPPSO_EXPONENT
+    if stage == "analyze":
+        return ANALYZE_SECONDS * n
+    return 1e-4 * n  # seed
+
+
+def max_runtime_minutes() -> int:
+    """The time-limit ceiling: $SPHEREJAM_MAX_RUNTIME (minutes) if set, else 24 h."""
+    raw = os.environ.get("SPHEREJAM_MAX_RUNTIME")
+    if raw is None or raw.strip() == "":
+        return MAX_RUNTIME_MINUTES
+    try:
+        value = int(raw)
+    except ValueError:
+        raise InputError(f"SPHEREJAM_MAX_RUNTIME={raw!r}: must be a whole number of minutes") from None
+    require(value >= 1, "SPHEREJAM_MAX_RUNTIME", raw, "must be >= 1 minute")
+    return value
+
+
+def _check_attempt(attempt) -> int:
+    ok = not isinstance(attempt, bool) and hasattr(attempt, "__index__") and operator.index(attempt) >= 1
+    require(ok, "attempt", attempt, "must be an integer >= 1")
+    return operator.index(attempt)
+
+
+def runtime_minutes(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
+                    decrease_factor: float = 2.0, final_rate: float = 1e-4) -> int:
+    """SLURM time limit of one job, minutes (Snakemake's ``runtime`` resource).
+
+    ``attempt`` is Snakemake's attempt counter (1 on the first submission): the limit grows with it, so a job that
+    was killed at its limit and resumed from its checkpoint gets more time, up to the ceiling.
+    """
+    attempt = _check_attempt(attempt)
+    work = cpu_seconds(stage, n, rate, initial_rate=initial_rate, decrease_factor=decrease_factor,
+                       final_rate=final_rate)
+    minutes = math.ceil((STARTUP_SECONDS + SAFETY * work) / 60.0)
+    minutes = max(minutes, FLOOR_MINUTES[stage]) * attempt
+    return int(min(minutes, max_runtime_minutes()))
+
+
+def mem_mb(stage: str, n: int, attempt: int = 1) -> int:
+    """Memory of one job, MB (Snakemake's ``mem_mb``); grows with the attempt number (an OOM kill is retried)."""
+    _check_stage(stage)
+    n = _check_n(n)
+    attempt = _check_attempt(attempt)
+    base = BASE_MEM_MB + MEM_PER_PARTICLE_MB[stage] * n
+    return int(math.ceil(base / 100.0) * 100) * attempt
+
+
+def cpus_per_task(stage: str, n: int) -> int:
+    """Cores of one job: every engine is single-threaded (numba without parallel loops, HiGHS IPM serial)."""
+    _check_stage(stage)
+    _check_n(n)
+    return 1
+
+
+def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
+             decrease_factor: float = 2.0, final_rate: float = 1e-4) -> JobEstimate:
+    """All resources of one job at once (see :func:`runtime_minutes`, :func:`mem_mb`, :func:`cpus_per_task`)."""
+    kw = {"initial_rate": initial_rate, "decrease_factor": decrease_factor, "final_rate": final_rate}
+    return JobEstimate(
+        runtime=runtime_minutes(stage, n, rate, attempt, **kw),
+        mem_mb=mem_mb(stage, n, attempt),
+        cpus_per_task=cpus_per_task(stage, n),
+        cpu_seconds=cpu_seconds(stage, n, rate, **kw),
+    )

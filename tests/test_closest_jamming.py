@@ -1,0 +1,186 @@
+"""Closest-jamming (MLS) search: state machine, starts from any packing, jammed inputs, checkpoints, validation.
+
+The paper's parameters (gamma_0 = 10, final rate 1e-4, factor 2) cost ~1e5 collisions per particle; most tests use
+fewer stages (final rate 1e-2, factor 4) on small N to stay fast. The science checks at N = 1e3-1e4 are in
+``benchmarks/mls_science.py``.
+"""
+
+import numpy as np
+import pytest
+
+from spherejam.closest_jamming import find_closest_jamming
+from spherejam.errors import InputError
+from spherejam.lubachevsky_stillinger import run_ls
+from spherejam.seeding import poisson_packing
+
+QUICK = {"final_rate": 1e-2, "decrease_factor": 4.0, "progress_interval": 1e9}
+
+
+def _check_state_machine(result, initial_rate, factor, final_rate, p_max=1e12, max_eq=50):
+    """Replay the per-window history against the MLS rules of the paper (§III.B)."""
+    h = result.history
+    rate, p, stage = h["rate"], h["pressure"], h["stage"]
+    n = len(rate)
+    k = 0
+    count = 0
+    for w in range(n):
+        last = w + 1 == n
+        if rate[w] > 0:
+            assert rate[w] == pytest.approx(initial_rate / factor**k, rel=1e-12)
+            if p[w] >= p_max and rate[w] <= final_rate:
+                assert last and result.counters["stop_reason"] == "final_rate"
+                break
+            assert not last
+            if p[w] >= p_max:  # jam reached: equilibrate at zero rate
+                assert rate[w + 1] == 0 and stage[w + 1] == stage[w] + 1
+                count = 0
+            else:
+                assert rate[w + 1] == rate[w] and stage[w + 1] == stage[w]
+        else:
+            if p[w] < p_max:  # unjammed: compress again, slower
+                k += 1
+                assert not last
+                assert rate[w + 1] == pytest.approx(initial_rate / factor**k, rel=1e-12)
+                assert stage[w + 1] == stage[w] + 1
+            else:
+                count += 1
+                if count >= max_eq:
+                    assert last and result.counters["stop_reason"] == "jammed"
+                    break
+                assert not last and rate[w + 1] == 0 and stage[w + 1] == stage[w]
+    c = result.counters
+    assert p[-1] >= p_max
+    assert c["stages"] == stage[-1] + 1
+    assert c["rate_decreases"] == k
+    assert c["collisions"] == h["collisions"].sum()
+    assert c["windows"] == n
+
+
+def _assert_jammed_result(result, start):
+    out = result.packing
+    assert out.check(1e-10).ok
+    assert out.min_gap() < 1e-9
+    assert out.metadata["algorithm"] == "mls"
+    assert out.metadata["reduced_pressure"] >= 1e12
+    c = result.counters
+    assert c["phi_J"] == pytest.approx(out.phi, rel=1e-12)
+    assert c["phi_initial"] == pytest.approx(start.scaled_to_contact().phi, rel=1e-9)
+    assert c["phi_J"] >= c["phi_initial"] - 1e-12
+    assert 0.58 < c["phi_J"] < 0.68
+
+
+def test_mls_from_poisson_start():
+    start = poisson_packing(100, 0.0, seed=1)
+    result = find_closest_jamming(start, seed=3, **QUICK)
+    _assert_jammed_result(result, start)
+    _check_state_machine(result, 10.0, 4.0, 1e-2)
+    assert result.counters["stages"] >= 5
+
+
+def test_mls_from_ls_start_polydisperse():
+    start = run_ls(poisson_packing(150, 0.3, seed=2), 0.5, seed=1, progress_interval=1e9).packing
+    result = find_closest_jamming(start, seed=4, **QUICK)
+    _assert_jammed_result(result, start)
+    _check_state_machine(result, 10.0, 4.0, 1e-2)
+    assert result.packing.metadata["parameters"]["input_algorithm"] == "ls"
+
+
+def test_mls_from_fb_start():
+    fb = pytest.importorskip("spherejam.force_biased")
+    start = fb.run_fb(poisson_packing(120, 0.0, seed=3), 1e-2, progress_interval=1e9).packing
+    result = find_closest_jamming(start, seed=5, initial_rate=1.0, **QUICK)
+    _assert_jammed_result(result, start)
+    _check_state_machine(result, 1.0, 4.0, 1e-2)
+
+
+@pytest.fixture(scope="module")
+def paper_mls_50():
+    """Paper parameters (gamma_0 = 10, f = 2, final rate 1e-4) on N = 50: the start and its MLS result."""
+    start = poisson_packing(50, 0.0, seed=1)
+    return start, find_closest_jamming(start, seed=1, progress_interval=1e9)
+
+
+def test_paper_parameters_on_small_packing_and_jammed_input_barely_moves(paper_mls_50):
+    """MLS on its own jammed output changes phi by far less than 1e-4."""
+    start, first = paper_mls_50
+    _assert_jammed_result(first, start)
+    _check_state_machine(first, 10.0, 2.0, 1e-4)
+    assert first.counters["final_rate_reached"] <= 1e-4 or first.counters["stop_reason"] == "jammed"
+    again = find_closest_jamming(first.packing, seed=2, progress_interval=1e9)
+    assert abs(again.counters["phi_J"] - first.counters["phi_J"]) < 1e-4
+    assert again.packing.check(1e-10).ok
+
+
+def test_rule_b_stops_after_max_equilibration_windows(paper_mls_50):
+    jammed = paper_mls_50[1].packing
+    result = find_closest_jamming(jammed, seed=7, max_equilibration_windows=3, progress_interval=1e9)
+    _check_state_machine(result, 10.0, 2.0, 1e-4, max_eq=3)
+    assert abs(result.counters["phi_J"] - jammed.phi) < 1e-4
+
+
+def test_checkpoint_resume_of_stages_is_identical(tmp_path):
+    start = poisson_packing(80, 0.0, seed=6)
+    reference = find_closest_jamming(start, seed=2, **QUICK)
+    assert reference.counters["stages"] > 3
+    ckpt = tmp_path / "mls.h5"
+
+    class Killed(Exception):
+        pass
+
+    def kill(window, stats):
+        if window == 12:
+            raise Killed
+
+    with pytest.raises(Killed):
+        find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, callback=kill, **QUICK)
+    assert ckpt.exists()
+    resumed = find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, **QUICK)
+    assert resumed.counters["resumed"] is True
+    assert not ckpt.exists()
+    assert np.array_equal(resumed.packing.positions, reference.packing.positions)
+    assert np.array_equal(resumed.history["stage"], reference.history["stage"])
+    assert resumed.counters["phi_J"] == reference.counters["phi_J"]
+
+
+def test_deterministic():
+    start = poisson_packing(60, 0.1, seed=9)
+    a = find_closest_jamming(start, seed=1, **QUICK)
+    b = find_closest_jamming(start, seed=1, **QUICK)
+    assert np.array_equal(a.packing.positions, b.packing.positions)
+    assert a.counters["collisions"] == b.counters["collisions"]
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"initial_rate": 0.0}, "initial_rate"),
+        ({"initial_rate": -1.0}, "initial_rate"),
+        ({"decrease_factor": 1.0}, "decrease_factor"),
+        ({"final_rate": 0.0}, "final_rate"),
+        ({"p_max": 1.0}, "p_max"),
+        ({"max_equilibration_windows": 0}, "max_equilibration_windows"),
+        ({"events_per_particle": 0}, "events_per_particle"),
+        ({"seed": -3}, "seed"),
+        ({"max_wall_time": -1.0}, "max_wall_time"),
+    ],
+)
+def test_bad_parameters_are_rejected(kwargs, field):
+    with pytest.raises(InputError, match=field):
+        find_closest_jamming(poisson_packing(10, 0.0, seed=1), **kwargs)
+
+
+def test_cli_mls(tmp_path):
+    from spherejam.cli import main
+    from spherejam.packing_io import read_packing, write_packing
+
+    src = tmp_path / "in.h5"
+    write_packing(src, poisson_packing(60, 0.0, seed=4))
+    out = tmp_path / "out.h5"
+    argv = ["mls", str(src), "-o", str(out), "--final-rate", "1e-2", "--decrease-factor", "4",
+            "--progress-interval", "1e9"]
+    assert main(argv) == 0
+    packing, history = read_packing(out, with_history=True)
+    assert packing.metadata["algorithm"] == "mls"
+    assert packing.metadata["counters"]["phi_J"] == pytest.approx(packing.phi)
+    assert "stage" in history
+    assert main(["mls", str(src), "-o", str(out), "--decrease-factor", "0.5"]) == 2

@@ -1,0 +1,136 @@
+"""SLURM resource estimates (spherejam.cluster_resources): calibration, monotonicity, limits and input checks."""
+
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import pytest
+
+from spherejam import cluster_resources as cr
+from spherejam.errors import InputError
+
+# LS collisions per particle from a Poisson start to p = 1e12, N = 1000, sigma = 0: our engine and the reference
+# C++ code (reference-benchmark.md), at gamma = 1e-1, 1e-2, 1e-3.
+MEASURED_LS = {1e-1: (523, 495), 1e-2: (2533, 2367), 1e-3: (20177, 18525)}
+
+
+@pytest.mark.parametrize("rate", sorted(MEASURED_LS))
+def test_ls_collision_model_matches_measured_runs(rate):
+    model = cr.ls_collisions_per_particle(rate)
+    for measured in MEASURED_LS[rate]:
+        assert measured / 1.3 < model < measured * 1.3
+
+
+def test_time_limits_cover_the_reference_codes_runs():
+    # Wall times of the (slower) reference code on the same machine type: a limit that covers them leaves room
+    # for a slow node or a slower engine than ours.
+    assert cr.runtime_minutes("ls", 10000, rate=1e-2) * 60 > 114  # LS N=1e4, gamma=1e-2: 114 s
+    assert cr.runtime_minutes("ls", 1000, rate=1e-3) * 60 > 71  # LS N=1000, gamma=1e-3: 71 s
+    mls_p1000 = cr.runtime_minutes("mls", 1000, initial_rate=1e-2, final_rate=1e-4)  # LSGD: 420 s
+    assert mls_p1000 * 60 > 420
+    # ... and the per-particle MLS estimate is within a few times the measured 7.1e4 (N=500) and 1.2e5 (N=1000).
+    per_particle = cr.mls_collisions_per_particle(1e-2, 2.0, 1e-4)
+    assert 1.2e5 <= per_particle <= 5 * 1.2e5
+
+
+def test_mls_rate_ladder_is_the_papers():
+    rates = cr.mls_rates(10.0, 2.0, 1e-4)
+    assert len(rates) == 18  # 10, 5, ..., 10 / 2^17
+    assert rates[-1] == pytest.approx(10.0 / 2**17)
+    assert rates[-2] > 1e-4 >= rates[-1]
+    assert cr.mls_rates(1e-4, 2.0, 1e-4) == [1e-4]
+
+
+def test_costs_grow_with_n_and_with_slower_rates():
+    for stage, kw in [("ls", {"rate": 1e-3}), ("fb", {"rate": 1e-5}), ("mls", {}), ("calippso", {})]:
+        assert cr.cpu_seconds(stage, 10000, **kw) > cr.cpu_seconds(stage, 1000, **kw)
+    assert cr.cpu_seconds("ls", 1000, 1e-4) > cr.cpu_seconds("ls", 1000, 1e-3) > cr.cpu_seconds("ls", 1000, 1.0)
+    assert cr.cpu_seconds("fb", 1000, 1e-7) > cr.cpu_seconds("fb", 1000, 1e-3)
+    # Validation grid: a smaller decrease factor or a lower final rate means more MLS phases.
+    base = cr.mls_collisions_per_particle(10.0, 2.0, 1e-4)
+    assert cr.mls_collisions_per_particle(10.0, 1.5, 1e-4) > base
+    assert cr.mls_collisions_per_particle(10.0, 2.0, 1e-5) > 3 * base
+    assert cr.runtime_minutes("ls", 10000, rate=1e-4) > cr.runtime_minutes("ls", 10000, rate=1e-2)
+
+
+def test_floor_ceiling_and_attempts(monkeypatch):
+    monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
+    tiny = cr.runtime_minutes("seed", 40)
+    assert tiny == cr.FLOOR_MINUTES["seed"]
+    assert cr.runtime_minutes("seed", 40, attempt=3) == 3 * tiny
+    huge = cr.runtime_minutes("mls", 10000, initial_rate=20.0, decrease_factor=1.5, final_rate=1e-5)
+    assert huge == cr.MAX_RUNTIME_MINUTES
+    assert cr.runtime_minutes("mls", 10000, attempt=10) == cr.MAX_RUNTIME_MINUTES
+    monkeypatch.setenv("SPHEREJAM_MAX_RUNTIME", "120")
+    assert cr.runtime_minutes("mls", 10000) == 120
+    assert cr.runtime_minutes("seed", 40) == tiny
+    monkeypatch.setenv("SPHEREJAM_MAX_RUNTIME", "two days")
+    with pytest.raises(InputError, match="SPHEREJAM_MAX_RUNTIME"):
+        cr.runtime_minutes("seed", 40)
+
+
+def test_paper_sized_jobs_ask_for_plausible_limits(monkeypatch):
+    monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
+    # N = 1e4 MLS 10 -> 1e-4: hours, not minutes and not days.
+    assert 60 <= cr.runtime_minutes("mls", 10000) <= 24 * 60
+    # Fast LS compressions and FB runs at N = 1e4 stay short, so they do not queue behind long jobs.
+    assert cr.runtime_minutes("ls", 10000, rate=1.0) <= 15
+    assert cr.runtime_minutes("fb", 10000, rate=1e-3) <= 15
+    for stage in cr.STAGES:
+        est = cr.estimate(stage, 10000, rate=1e-3)
+        assert isinstance(est.runtime, int) and est.runtime >= 1
+        assert isinstance(est.mem_mb, int) and est.mem_mb >= cr.BASE_MEM_MB
+        assert est.cpus_per_task == 1
+        assert math.isfinite(est.cpu_seconds) and est.cpu_seconds > 0
+
+
+def test_memory_grows_with_n_and_attempt():
+    assert cr.mem_mb("calippso", 10000) >= 4000
+    assert cr.mem_mb("calippso", 10000) > cr.mem_mb("calippso", 1000)
+    assert cr.mem_mb("ls", 40) >= cr.BASE_MEM_MB
+    assert cr.mem_mb("ls", 10000, attempt=2) == 2 * cr.mem_mb("ls", 10000)
+
+
+def test_works_as_snakemake_resource_callables():
+    # The rules pass lambdas (wildcards, attempt) -> int; wildcard values arrive as strings.
+    class W:
+        rate = "0.01"
+
+    runtime = lambda wildcards, attempt: cr.runtime_minutes("ls", 256, rate=float(wildcards.rate), attempt=attempt)
+    assert runtime(W(), 1) < runtime(W(), 2)
+    assert cr.runtime_minutes("mls", 256, rate=0.01, final_rate=1e-4) > 0  # a generation rate is ignored there
+
+
+@pytest.mark.parametrize(
+    ("call", "field"),
+    [
+        (lambda: cr.runtime_minutes("md", 100), "stage"),
+        (lambda: cr.runtime_minutes("ls", 100), "rate"),
+        (lambda: cr.runtime_minutes("ls", 100, rate=-1.0), "rate"),
+        (lambda: cr.runtime_minutes("ls", 100, rate=float("nan")), "rate"),
+        (lambda: cr.runtime_minutes("fb", 100, rate=2.0), "rate"),
+        (lambda: cr.runtime_minutes("ls", 1, rate=0.1), "n"),
+        (lambda: cr.runtime_minutes("ls", 100.5, rate=0.1), "n"),
+        (lambda: cr.runtime_minutes("seed", 100, attempt=0), "attempt"),
+        (lambda: cr.runtime_minutes("mls", 100, decrease_factor=1.0), "decrease_factor"),
+        (lambda: cr.runtime_minutes("mls", 100, final_rate=0.0), "final_rate"),
+        (lambda: cr.mem_mb("seed", 100, attempt=True), "attempt"),
+    ],
+)
+def test_bad_input_names_the_field(call, field):
+    with pytest.raises(InputError, match=rf"^{field}="):
+        call()
+
+
+def test_module_imports_nothing_heavy():
+    # Snakemake evaluates these functions for every job while building the DAG.
+    tree = ast.parse(Path(cr.__file__).read_text())
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            imported.add("." * node.level + (node.module or ""))
+    assert imported <= {"__future__", "math", "operator", "os", "dataclasses", ".errors"}
