@@ -254,6 +254,7 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
         ({"rate": 0.1, "target_phi": 1.2}, "target_phi"),
         ({"rate": 0.1, "temperature": 0.0}, "temperature"),
         ({"rate": 0.1, "max_collisions": 0}, "max_collisions"),
+        ({"rate": 0.0}, "rate"),
     ],
 )
 def test_bad_parameters_are_rejected(kwargs, field):
@@ -285,3 +286,14 @@ def test_cli_ls_writes_a_valid_packing(tmp_path, capsys):
     assert "pressure" in history
     assert main(["ls", str(src), "--rate", "-1", "-o", str(out)]) == 2
     assert main(["ls", str(src), "--rate", "0.1", "--p-max", "1", "-o", str(out)]) == 2
+
+
+def test_window_length_switch_counts_events_or_collisions():
+    packing = poisson_packing(200, 0.0, seed=12)
+    by_events = run_ls(packing, 0.1, seed=1, progress_interval=1e9)
+    by_collisions = run_ls(packing, 0.1, seed=1, count_collisions_only=True, progress_interval=1e9)
+    assert np.all(by_events.history["events"] == 20 * 200)
+    assert np.all(by_events.history["collisions"] < 20 * 200)
+    assert np.all(by_collisions.history["collisions"] == 20 * 200)
+    assert np.all(by_collisions.history["events"] > 20 * 200)
+    assert by_collisions.packing.metadata["parameters"]["count_collisions_only"] is True

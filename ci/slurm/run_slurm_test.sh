@@ -11,6 +11,7 @@
 #   --workflow DIR  folder with the Snakefile and profiles/ (default: this repository)
 #   --work DIR      where the two results folders and logs go (default: a new folder under /tmp)
 #   --keep          leave the work folder (it is removed after a successful run otherwise)
+# Each Snakemake run is stopped after $SLURM_TEST_TIMEOUT seconds (default 900).
 set -euo pipefail
 
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -19,13 +20,14 @@ WORKFLOW=$REPO
 CONFIG=config/tiny.yaml
 WORK=""
 KEEP=0
+LIMIT=${SLURM_TEST_TIMEOUT:-900}
 while [ $# -gt 0 ]; do
     case "$1" in
         --config) CONFIG=$2; shift 2 ;;
         --workflow) WORKFLOW=$(cd "$2" && pwd); shift 2 ;;
         --work) WORK=$2; shift 2 ;;
         --keep) KEEP=1; shift ;;
-        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,15p' "$0"; exit 0 ;;
         *) echo "run_slurm_test: unknown argument $1" >&2; exit 2 ;;
     esac
 done
@@ -72,7 +74,7 @@ COMMON=(--configfile "$CONFIG" --nocolor)
 # --- local run (also warms numba's cache for the SLURM jobs) ---------------------------------------------------
 log "local run: snakemake --cores 2 --configfile $CONFIG --config results=$WORK/local"
 T1=$SECONDS
-if ! snakemake --workflow-profile "$WORKFLOW/profiles/default" --cores 2 "${COMMON[@]}" \
+if ! timeout -s INT -k 60 "$LIMIT" snakemake --workflow-profile "$WORKFLOW/profiles/default" --cores 2 "${COMMON[@]}" \
         --config results="$WORK/local" >"$WORK/local.log" 2>&1; then
     tail -n 40 "$WORK/local.log" >&2
     log "FAILED: local run (log $WORK/local.log)"
@@ -85,7 +87,7 @@ T_LOCAL=$((SECONDS - T1))
 log "SLURM run: snakemake --workflow-profile profiles/slurm --configfile $CONFIG --config results=$WORK/slurm"
 T2=$SECONDS
 FIRST_JOB=$(squeue -h --states=all -o '%i' 2>/dev/null | sort -n | tail -n 1)
-if ! snakemake --workflow-profile "$WORKFLOW/profiles/slurm" "${COMMON[@]}" --config results="$WORK/slurm" \
+if ! timeout -s INT -k 60 "$LIMIT" snakemake --workflow-profile "$WORKFLOW/profiles/slurm" "${COMMON[@]}" --config results="$WORK/slurm" \
         --slurm-init-seconds-before-status-checks 2 --slurm-keep-successful-logs \
         --slurm-logdir "$WORK/slurm-logs" --latency-wait 10 --keep-going \
         >"$WORK/slurm.log" 2>&1; then
@@ -102,7 +104,9 @@ T_SLURM=$((SECONDS - T2))
 SUBMITTED=$(grep -c "submitted with SLURM jobid" "$WORK/slurm.log" || true)
 STATES=$(squeue -h --states=all -o '%i %T' | awk -v first="${FIRST_JOB:-0}" '$1 > first {print $2}' | sort | uniq -c \
     | tr '\n' ' ')
-log "SLURM jobs submitted: $SUBMITTED; final states: $STATES"
+CPUS=$(squeue -h --states=all -o '%i %C' | awk -v first="${FIRST_JOB:-0}" '$1 > first {print $2}' | sort | uniq -c \
+    | awk '{printf "%s x %s CPU ", $1, $2}')
+log "SLURM jobs submitted: $SUBMITTED; final states: $STATES; requests: $CPUS"
 if [ "$SUBMITTED" -lt 1 ]; then
     log "FAILED: no job was submitted to SLURM"
     exit 1

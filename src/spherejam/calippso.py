@@ -13,12 +13,18 @@ then moves r_i <- r_i + s_i and inflates every diameter by sqrt(Gamma). Lengths 
 ``gamma_tolerance`` and max |s_{i,mu}| over non-rattlers <= ``displacement_tolerance`` * (current largest diameter).
 
 **Cutoff l and bound s_bound** (spec §1.3), chosen from sqrt(Gamma) - 1 of the previous LP:
-regime 1 (> 5e-4): l = l0, s_bound = (l/2 - max(1.5, sqrt(Gamma_prev)) R)/sqrt(d); regime 2 (> 1e-5): l = min(4R, l0),
-s_bound = 0.1R; regime 3: l = min(2.7R, l0), s_bound = 0.01R. Deviations, all for safety or speed:
+regime 1 (> 5e-4): l = l0, s_bound = (l/2 - max(1.5, sqrt(Gamma_prev)) R)/sqrt(d); regime 2 (> 1e-5): s_bound =
+0.1R; regime 3: l = min(2.7R, l0), s_bound = 0.01R. Deviations, all for safety or speed:
 
 * ``Gamma_max`` = ((l - 2 sqrt(d) s_bound) / 2R)^2 bounds Gamma. A pair outside l (or a non-minimum image, as
   l <= L/2) can approach by at most 2 sqrt(d) s_bound, so with this bound *no* pair can overlap after the step --
   a proof where the reference has a heuristic. The bound is never active near convergence.
+* When a non-rattler ends an LP at its s bound (the bound, not the contacts, stopped it -- the reference's
+  "non-isostatic before convergence" symptom), the next bound is doubled, up to 0.1R; once no bound stops a
+  stable particle it is halved back towards the regime's value. With the fixed regime-3 bound of 0.01R a
+  fast-compressed LS start otherwise crawls for hundreds of iterations.
+* Regime 2 uses l = min(2.7R, l0) like regime 3, not the reference's 4R: with Gamma_max the cutoff no longer
+  carries the safety argument, and 4R made the LP 3.5 times larger for nothing (same trajectory, measured).
 * l is enlarged (never s_bound driven <= 0) when regime 1 would give s_bound < 0.1 R / sqrt(d), and in regimes 2-3
   when l0 has fallen below the needed margin; l is capped at L/2 (an error if the box is then too small).
 * The first iteration's sqrt(Gamma_prev) (the reference's fixed 1.01, always regime 1) is by default estimated as
@@ -35,6 +41,11 @@ f_ij ∝ lambda_ij r_ij. A pair is a contact iff lambda_ij sigma_ij^2 > ``zero_f
 sum to 1 over ~dN/2 contacts). Rattlers: particles outside the (d+1)-core of the contact graph (iterated).
 After convergence one more LP with s unbounded (|s| <= R only, so it stays bounded) and Gamma free is solved at the
 final positions without moving anything (spec §2.3), so no bound carries force; contacts and forces come from it.
+
+**Active-set shortcut.** When the previous LP was isostatic, its contact network predicts the next optimal vertex;
+:func:`solve_active_set` solves that square system by sparse LU, pivots (primal simplex) while a dual is negative,
+and returns the vertex only if it is certified optimal (primal and dual feasible). Otherwise HiGHS solves the LP.
+Near convergence this replaces most HiGHS solves; ``active_set=False`` turns it off (tests check both agree).
 
 **Failures.** Every LP status is checked. A non-optimal interior-point solve is retried once with dual simplex; a
 second failure raises :class:`SimulationError` (status, iteration, LP size). An infeasible LP cannot happen from an
@@ -66,6 +77,8 @@ REGIME_S_BOUNDS = (0.1, 0.01)
 REGIME_CUTOFFS = (2.7, 2.7)
 #: Smallest regime-1 bound sqrt(d) s_bound / R accepted before the cutoff is enlarged instead.
 MIN_FAR_BOUND = 0.1
+#: Cap (units of R) of the doubled s_bound after a stable particle hit its bound.
+MAX_ESCALATED_BOUND = 0.1
 #: Largest correction of sqrt(Gamma) tolerated for solver round-off before the step is declared broken.
 MAX_OVERLAP_CORRECTION = 1e-8
 CHECKPOINT_KIND = "calippso"
@@ -305,7 +318,7 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     if basis.size != nu:
         return None  # a predicted contact left the cutoff or involves a particle that is now a rattler
     if max_pivots is None:
-        max_pivots = 20 + nu // 20
+        max_pivots = 10  # each pivot refactorises; beyond a few, HiGHS is cheaper
     e_gamma = np.zeros(nu)
     e_gamma[-1] = 1.0
     for pivot in range(max_pivots + 1):
@@ -588,6 +601,7 @@ def run_calippso(
     lp_time = 0.0
     methods: dict[str, int] = {}
     predicted = None  # (contact keys, rattler mask) of the last LP, when isostatic
+    bound_hit, prev_sb = False, 0.0
     ckpt = Path(checkpoint) if checkpoint is not None else None
     fingerprint = _fingerprint(packing, {k: v for k, v in parameters.items() if k != "max_iterations"})
     if ckpt is not None and ckpt.exists():
@@ -601,17 +615,26 @@ def run_calippso(
 
     while iteration < max_iterations:
         R = 0.5 * float(dia.max())
-        ell, sb, gamma_max, regime = cutoff_and_bound(
-            sqrt_gamma_prev, R, cutoff0, dim, box, regime_thresholds,
-            None if s_bound is None else s_bound * 2.0 * R,
-        )
+        fixed_sb = None if s_bound is None else s_bound * 2.0 * R
+        if fixed_sb is None and prev_sb > 0:
+            # a stable particle stopped by its bound means the regime's bound is too tight for this packing:
+            # double it (up to 0.1 R); once no bound stops anyone, relax back towards the regime's value
+            regime_sb = cutoff_and_bound(sqrt_gamma_prev, R, cutoff0, dim, box, regime_thresholds)[1]
+            grown = min(2.0 * prev_sb, MAX_ESCALATED_BOUND * R) if bound_hit else 0.5 * prev_sb
+            if grown > regime_sb:
+                fixed_sb = grown
+        ell, sb, gamma_max, regime = cutoff_and_bound(sqrt_gamma_prev, R, cutoff0, dim, box, regime_thresholds,
+                                                      fixed_sb)
         pi, pj, _ = pairs_in_cutoff(x, box, ell)
         rij = pair_vectors(x, box, pi, pj)
         sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
         sol = None
         if predicted is not None:
+            t_try = time.perf_counter()
             sol = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=sb, pinned=pinned,
                                    gamma_bounds=(1.0, gamma_max))
+            if sol is None:
+                lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
         if sol is None:
             sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
                            tolerance=solver_tolerance, options=solver_options, iteration=iteration)
@@ -652,6 +675,8 @@ def run_calippso(
             f"LP {sol.solve_time:.2f} s"
         )
         last = (rij, sigma2, pi, pj, sol, rattler)
+        bound_hit = bool(np.any(~rattler)) and float(np.max(np.abs(sol.s[~rattler]))) >= (1.0 - 1e-9) * sb
+        prev_sb = sb
         sqrt_gamma_prev = sqrt_gamma
         if rattler[pinned] and np.any(~rattler):
             pinned = _repin(contact, pi, pj, rattler, n)
@@ -906,11 +931,39 @@ def extended_forces(result: CalippsoResult) -> np.ndarray:
     out every contact that touches one isolates the extended ones (theta_e). This is our operational split, not a
     quote of the paper's.
     """
+    return result.forces[contact_arrays(result)["extended"]]
+
+
+def contact_arrays(result: CalippsoResult) -> dict[str, np.ndarray]:
+    """The contact network, forces and near-contact gaps of a result, as arrays for the packing file."""
     n = result.rattlers.size
     z = np.bincount(result.pairs.ravel(), minlength=n)
     buckler = z == result.packing.dim + 1
-    keep = ~buckler[result.pairs[:, 0]] & ~buckler[result.pairs[:, 1]]
-    return result.forces[keep]
+    extended = ~buckler[result.pairs[:, 0]] & ~buckler[result.pairs[:, 1]]
+    return {
+        "pairs": result.pairs, "forces": result.forces, "extended": extended,
+        "contact_vectors": result.contact_vectors, "rattlers": result.rattlers,
+        "gaps": result.gaps, "gap_pairs": result.gap_pairs,
+    }
+
+
+#: name -> (long_name, units) of the summary scalars (the dataset prefixes them with ``calippso_``).
+VARIABLES: dict[str, tuple[str, str]] = {
+    "phi": ("packing fraction of the CALiPPSO-jammed packing", "1"),
+    "delta_phi": ("packing fraction change, CALiPPSO minus input (MLS)", "1"),
+    "iterations": ("linear programs solved", "1"),
+    "converged": ("1 if both convergence tolerances were met", "1"),
+    "is_isostatic": ("1 if N_c = d (N_s - 1) + 1 among non-rattlers", "1"),
+    "rattler_fraction": ("fraction of rattlers (outside the (d+1)-core of the contact network)", "1"),
+    "force_balance_residual": ("largest net contact force on a non-rattler, in units of the mean force", "1"),
+    "n_contacts": ("contacts among non-rattlers N_c", "1"),
+    "n_stable": ("non-rattlers N_s", "1"),
+    "isostatic_excess": ("N_c - (d (N_s - 1) + 1)", "1"),
+    "wall_time": ("wall time of the CALiPPSO run", "s"),
+    "gap_gamma": ("small-gap power-law exponent gamma of P(h) ~ h^-gamma (mean field 0.41269)", "1"),
+    "force_theta_all": ("small-force exponent theta of P(f) ~ f^theta, all contacts", "1"),
+    "force_theta_extended": ("small-force exponent theta_e, extended contacts (mean field 0.42311)", "1"),
+}
 
 
 def distributions(result: CalippsoResult) -> dict[str, float]:

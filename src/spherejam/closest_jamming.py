@@ -19,6 +19,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from .errors import require
 from .lubachevsky_stillinger import (
     DEFAULT_TEMPERATURE,
@@ -143,7 +145,7 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     require(_finite(decrease_factor) and decrease_factor > 1, "decrease_factor", decrease_factor,
             "must be a finite number > 1")
     require(_finite(final_rate) and final_rate > 0, "final_rate", final_rate, "must be a finite number > 0")
-    require(isinstance(max_equilibration_windows, int) and max_equilibration_windows >= 1,
+    require(isinstance(max_equilibration_windows, (int, np.integer)) and max_equilibration_windows >= 1,
             "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
     parameters = {
         "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),

@@ -221,3 +221,71 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
         cpus_per_task=cpus_per_task(stage, n),
         cpu_seconds=cpu_seconds(stage, n, rate, **kw),
     )
+
+
+def plan(config: dict) -> dict[str, dict[str, float]]:
+    """Jobs, expected CPU hours and requested (time-limit) hours per stage of a whole workflow config.
+
+    Mirrors the workflow's jobs: per generated packing one seed, one generation (ls/fb), one MLS, and (when enabled)
+    one analyze and one calippso job; plus one MLS job per validation-grid run. First attempts only.
+    """
+    from .experiment import Experiment  # lazy: the rules' resource lambdas never need it
+
+    exp = Experiment(config)
+    mls = config.get("mls", {})
+    mls_kw = {"initial_rate": float(mls.get("initial_rate", 10.0)),
+              "decrease_factor": float(mls.get("decrease_factor", 2.0)),
+              "final_rate": float(mls.get("final_rate", 1e-4))}
+    jobs: list[tuple[str, float | None, dict]] = []
+    for run in exp.runs():
+        jobs += [("seed", None, {}), (run.protocol, run.rate, {}), ("mls", None, mls_kw)]
+        if config.get("analysis", {}).get("enabled", False):
+            jobs.append(("analyze", None, {}))
+        if config.get("calippso", {}).get("enabled", False):
+            jobs.append(("calippso", None, {}))
+    for g in exp.grid_runs():
+        jobs.append(("mls-grid", None, {"initial_rate": g.initial_rate, "decrease_factor": g.decrease_factor,
+                                        "final_rate": g.final_rate}))
+    table: dict[str, dict[str, float]] = {}
+    for label, rate, kw in jobs:
+        stage = "mls" if label == "mls-grid" else label
+        row = table.setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
+        row["jobs"] += 1
+        row["cpu_hours"] += cpu_seconds(stage, exp.n, rate, **kw) / 3600.0
+        row["requested_hours"] += runtime_minutes(stage, exp.n, rate, **kw) / 60.0
+    return table
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m spherejam.cluster_resources CONFIG.yaml [MORE.yaml]``: print the cost of a workflow config."""
+    import argparse
+
+    import yaml
+
+    ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")
+    ap.add_argument("configs", nargs="+", help="config files, e.g. config/config.yaml config/paper.yaml")
+    args = ap.parse_args(argv)
+    config: dict = {}
+    for path in args.configs:
+        with open(path) as fh:
+            _merge(config, yaml.safe_load(fh) or {})
+    table = plan(config)
+    print(f"N = {config['n']}; first attempts; expected = model CPU time, requested = sum of SLURM time limits")
+    print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
+    for label, row in table.items():
+        print(f"{label:10s} {row['jobs']:7d} {row['cpu_hours']:15.1f} {row['requested_hours']:12.1f}")
+    total = {k: sum(r[k] for r in table.values()) for k in ("jobs", "cpu_hours", "requested_hours")}
+    print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
+    return 0
+
+
+def _merge(base: dict, update: dict) -> None:
+    for key, value in update.items():
+        if isinstance(value, dict) and isinstance(base.get(key), dict):
+            _merge(base[key], value)
+        else:
+            base[key] = value
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -162,6 +162,77 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
     return runs, rows
 
 
+FORCE_BINS = np.geomspace(1e-4, 10.0, 41)  # f / <f>
+GAP_BINS = np.geomspace(1e-12, 1e-1, 45)  # h = r / D_ij - 1
+
+
+def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Probability density on ``edges``, normalised by the number of all values (also those outside)."""
+    counts, _ = np.histogram(values, bins=edges)
+    return counts / max(len(values), 1) / np.diff(edges)
+
+
+def collect_distributions(exp: Experiment) -> dict[str, tuple]:
+    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma, with the
+    small-argument power-law exponents fitted on the pooled samples."""
+    from .calippso import force_exponent, gap_exponent
+    from .packing_io import read_group
+
+    sigmas = sorted(set(exp.sigmas))
+    rows = {k: [] for k in ("force_pdf", "extended_force_pdf", "gap_pdf", "force_exponent", "gap_exponent",
+                            "n_forces", "n_gaps")}
+    for sigma in sigmas:
+        forces, extended, gaps = [], [], []
+        for run in exp.runs():
+            if run.sigma != sigma:
+                continue
+            c = read_group(exp.packing_dir(run) / "calippso.h5", "contacts")
+            if c:
+                forces.append(c["forces"])
+                extended.append(c["forces"][c["extended"].astype(bool)])
+                gaps.append(c["gaps"])
+        f = np.concatenate(forces) if forces else np.array([])
+        fe = np.concatenate(extended) if extended else np.array([])
+        g = np.concatenate(gaps) if gaps else np.array([])
+        rows["force_pdf"].append(_pdf(f, FORCE_BINS))
+        rows["extended_force_pdf"].append(_pdf(fe, FORCE_BINS))
+        rows["gap_pdf"].append(_pdf(g, GAP_BINS))
+        rows["force_exponent"].append(_safe_exponent(force_exponent, fe))
+        rows["gap_exponent"].append(_safe_exponent(gap_exponent, g))
+        rows["n_forces"].append(len(f))
+        rows["n_gaps"].append(len(g))
+    dims = {"force_pdf": ("dist_sigma", "force_bin"), "extended_force_pdf": ("dist_sigma", "force_bin"),
+            "gap_pdf": ("dist_sigma", "gap_bin")}
+    out = {k: (dims.get(k, ("dist_sigma",)), np.array(v, dtype=float)) for k, v in rows.items()}
+    out["_coords"] = {
+        "dist_sigma": ("dist_sigma", np.array(sigmas)),
+        "force_bin_centre": ("force_bin", np.sqrt(FORCE_BINS[1:] * FORCE_BINS[:-1])),
+        "gap_bin_centre": ("gap_bin", np.sqrt(GAP_BINS[1:] * GAP_BINS[:-1])),
+    }
+    return out
+
+
+def _safe_exponent(fit, values) -> float:
+    try:
+        return float(fit(values).exponent)
+    except Exception:  # noqa: BLE001 - too few small values to fit: no exponent, not an error
+        return math.nan
+
+
+DISTRIBUTION_VARIABLES = {
+    "force_pdf": ("probability density of contact forces f/<f>, CALiPPSO packings pooled per sigma", "1"),
+    "extended_force_pdf": ("probability density of extended contact forces (no buckler contacts)", "1"),
+    "gap_pdf": ("probability density of gaps h = r/D - 1 between non-contacting near neighbours", "1"),
+    "force_exponent": ("small-force exponent theta_e of the pooled extended forces (mean field 0.42311)", "1"),
+    "gap_exponent": ("small-gap exponent gamma of the pooled gaps (mean field 0.41269)", "1"),
+    "n_forces": ("contact forces pooled", "1"),
+    "n_gaps": ("gaps pooled", "1"),
+    "dist_sigma": ("sigma of the pooled distributions", "1"),
+    "force_bin_centre": ("geometric centre of the force bin, f/<f>", "1"),
+    "gap_bin_centre": ("geometric centre of the gap bin, h", "1"),
+}
+
+
 def _describe(ds, extra: dict[str, tuple[str, str]]) -> None:
     table = {**COORDS, **VARIABLES, **extra}
     for name in list(ds.variables):
@@ -224,8 +295,12 @@ def build_dataset(manifest_path: str | os.PathLike):
             initial_rate=("grid_run", np.array([g.initial_rate for g in grid_runs])),
             final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
         )
+    if exp.config.get("calippso", {}).get("enabled", True):
+        dist = collect_distributions(exp)
+        coords.update(dist.pop("_coords"))
+        data_vars.update(dist)
     ds = xr.Dataset(data_vars=data_vars, coords=coords)
-    extra = _structure_variables()
+    extra = {**_structure_variables(), **DISTRIBUTION_VARIABLES}
     _describe(ds, extra)
     prov = provenance()
     ds.attrs.update(

@@ -231,19 +231,24 @@ def forces(ds):
     """Contact-force and gap distributions of the CALiPPSO-certified packings."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    for ax, var, xlabel, expo, mf in (
-        (axes[0], "force", "contact force f / <f>", "force_exponent", 0.42),
-        (axes[1], "gap", "gap h = r/D - 1", "gap_exponent", 0.41),
+    for ax, var, xlabel, expo, symbol, mf in (
+        (axes[0], "extended_force", "contact force f / <f>", "force_exponent", "θ_e", 0.42311),
+        (axes[1], "gap", "gap h = r/D - 1", "gap_exponent", "γ", 0.41269),
     ):
-        pdf, centres = f"{var}_pdf", f"{var}_bin_centre"
+        pdf, centres = f"{var}_pdf", f"{var.removeprefix('extended_')}_bin_centre"
         if pdf in ds and centres in ds.coords:
-            for s in ds.dist_sigma.values:
+            for k, s in enumerate(ds.dist_sigma.values):
                 y = ds[pdf].sel(dist_sigma=s).values
                 ok = np.isfinite(y) & (y > 0)
-                ax.loglog(ds[centres].values[ok], y[ok], "o-", ms=3, label=f"σ = {s:g}")
+                line, = ax.loglog(ds[centres].values[ok], y[ok], "o-", ms=3, label=f"σ = {s:g}")
+                if var == "extended_force" and "force_pdf" in ds:
+                    y_all = ds["force_pdf"].sel(dist_sigma=s).values
+                    ok = np.isfinite(y_all) & (y_all > 0)
+                    ax.loglog(ds[centres].values[ok], y_all[ok], ":", color=line.get_color(),
+                              label="all contacts" if k == 0 else None)
             if expo in ds:
                 txt = ", ".join(f"{v:.2f}" for v in ds[expo].values)
-                ax.set_title(f"small-argument exponent: {txt} (mean field {mf})", fontsize=9)
+                ax.set_title(f"fitted {symbol} per σ: {txt} (mean field {mf})", fontsize=9)
             ax.legend(fontsize=8)
         else:
             _no_data(ax, f"{var} distribution not in dataset")

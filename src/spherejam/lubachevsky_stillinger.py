@@ -112,6 +112,7 @@ class LSEngine:
         self.hpos = np.zeros(n, dtype=np.int32)
         self.hkey = np.zeros(n)
         self.list_rebuilds = 0
+        self.perm = np.arange(n)  # internal index -> input index (particles are renumbered in cell order)
         self.refs = None  # set by rebuild_lists
         self.rebuild_lists(0.0)
 
@@ -141,6 +142,7 @@ class LSEngine:
         m = min(m, math.ceil((2.0 * n) ** (1.0 / 3.0)))
         if m < 3:
             m = 1
+        self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]
         while True:
             refs, nbr, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(self.st, box, rho_list, skin, m, cap)
@@ -153,6 +155,15 @@ class LSEngine:
         self.scratch = np.zeros(max(cap, 64), dtype=np.int32)
         self.list_rebuilds += 1
 
+    def _sort_by_cell(self, m: int) -> None:
+        """Renumber particles in cell order so that neighbours sit close in memory (all particles synchronised)."""
+        cell = np.floor(np.mod(self.st[:, 0:3], self.box) / self.box * m).astype(np.int64) % m
+        key = (cell[:, 2] * m + cell[:, 1]) * m + cell[:, 0]
+        order = np.argsort(key, kind="stable")
+        if np.any(order != np.arange(self.n)):
+            self.st = np.ascontiguousarray(self.st[order])
+            self.perm = self.perm[order]
+
     def _enlarge_lists(self) -> None:
         cap = self.nbr.shape[1]
         new_cap = int(1.5 * cap) + 8
@@ -162,17 +173,25 @@ class LSEngine:
         self.scratch = np.zeros(new_cap, dtype=np.int32)
 
     # --- windows --------------------------------------------------------------------------------------------
+    def _original_order(self, columns: slice) -> np.ndarray:
+        out = np.empty((self.n, columns.stop - columns.start))
+        out[self.perm] = self.st[:, columns]
+        return out
+
     @property
     def velocities(self) -> np.ndarray:
-        return self.st[:, 3:6]
+        """(N, 3) velocities in the input's particle order (a copy)."""
+        return self._original_order(slice(3, 6))
 
     @property
     def positions(self) -> np.ndarray:
-        return self.st[:, 0:3]
+        """(N, 3) positions in the input's particle order (a copy; synchronised between windows)."""
+        return self._original_order(slice(0, 3))
 
     @property
     def nominal(self) -> np.ndarray:
-        return self.st[:, 7]
+        """Nominal diameters in the input's particle order."""
+        return self._original_order(slice(7, 8))[:, 0]
 
     def kinetic_energy(self) -> float:
         v = self.st[:, 3:6]
@@ -243,7 +262,7 @@ class LSEngine:
         )
 
     # --- checkpoint state -----------------------------------------------------------------------------------
-    _ARRAYS = ("st", "refs", "nbr", "nnb", "head", "nxt", "prv", "cellof")
+    _ARRAYS = ("st", "perm", "refs", "nbr", "nnb", "head", "nxt", "prv", "cellof")
 
     def state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         arrays = {f"engine_{k}": getattr(self, k) for k in self._ARRAYS}
@@ -438,7 +457,7 @@ def drive(packing: Packing, controller: Controller, *, algorithm: str, parameter
         "reduced_pressure": last_pressure,
         "counters": counters,
     })
-    result = Packing(engine.positions.copy(), engine.rho0 * engine.nominal, packing.box, metadata)
+    result = Packing(engine.positions, engine.rho0 * engine.nominal, packing.box, metadata)
     report = result.check(AUDIT_TOLERANCE)
     if not report.ok:
         raise SimulationError(f"{algorithm}: final audit failed, the result is discarded: {report}")
@@ -520,6 +539,8 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
             "max_collisions", max_collisions, "must be None or an integer >= 1")
     if rate == 0 and target_phi is not None:
         raise InputError(f"target_phi={target_phi!r}: cannot be reached at rate=0")
+    if rate == 0 and max_collisions is None and max_wall_time is None:
+        raise InputError("rate=0.0: zero-rate MD may never reach p_max; give max_collisions or max_wall_time")
     parameters = {
         "rate": float(rate), "p_max": float(p_max), "seed": int(seed), "target_phi": target_phi,
         "max_collisions": max_collisions, "max_wall_time": max_wall_time,

@@ -5,6 +5,7 @@ Layout of a packing file::
     /positions   (N, d) float64, in [0, L)
     /diameters   (N,)   float64, actual diameters
     /history/*   optional per-window (or per-iteration) columns of the run that made it
+    /<group>/*   optional extra arrays (e.g. /contacts/forces of a CALiPPSO packing)
     attrs: format, box, dim, n, phi, algorithm, seed, reduced_pressure, parameters (JSON), counters (JSON),
            metadata (JSON, everything else), spherejam_version, git_commit, created, package_versions (JSON)
 """
@@ -52,8 +53,9 @@ def write_packing(
     packing: Packing,
     history: Mapping[str, np.ndarray] | None = None,
     tolerance: float = DEFAULT_OVERLAP_TOLERANCE,
+    groups: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> Path:
-    """Validate ``packing`` and write it (plus an optional run history) atomically to ``path``.
+    """Validate ``packing`` and write it (plus an optional run history and extra array groups) atomically.
 
     Raises :class:`OverlapError` (and writes nothing) if the packing overlaps beyond ``tolerance``.
     """
@@ -83,11 +85,24 @@ def write_packing(
             a["git_commit"] = prov["git_commit"]
             a["created"] = prov["created"]
             a["package_versions"] = dumps(prov["package_versions"])
-            if history:
-                g = f.create_group("history")
-                for name, column in history.items():
-                    g.create_dataset(name, data=np.asarray(column))
+            for group_name, arrays in {"history": history or {}, **(groups or {})}.items():
+                if arrays:
+                    g = f.create_group(group_name)
+                    for name, column in arrays.items():
+                        g.create_dataset(name, data=np.asarray(column))
     return path
+
+
+def read_group(path: str | os.PathLike, group: str) -> dict[str, np.ndarray]:
+    """The arrays of one extra group of a packing file (empty if the group is absent)."""
+    h5py = _h5py()
+    try:
+        with h5py.File(path, "r") as f:
+            if group not in f:
+                return {}
+            return {k: v[()] for k, v in f[group].items()}
+    except OSError as exc:
+        _fail(path, f"not a readable HDF5 packing file ({str(exc).splitlines()[0]})")
 
 
 def _fail(path, problem: str):

@@ -21,11 +21,14 @@ def register(sub) -> None:
     p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (resume if it exists)")
     p.add_argument("--require-convergence", action="store_true", help="exit 1 if not converged")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--summary", type=Path, default=None,
+                   help="also write the summary (scalars and power-law fits) to this JSON file")
     p.set_defaults(func=_calippso)
 
 
 def _calippso(args) -> int:
-    from ..calippso import distributions, run_calippso
+    from ..atomic import atomic_output
+    from ..calippso import contact_arrays, distributions, run_calippso
     from ..packing_io import read_packing, write_packing
 
     packing = read_packing(args.path)
@@ -34,10 +37,13 @@ def _calippso(args) -> int:
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence,
     )
-    write_packing(args.output, result.packing, history=result.history)
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.converged:
         summary.update(distributions(result))
+    if args.summary:
+        with atomic_output(args.summary, ".json") as tmp:
+            tmp.write_text(json.dumps(summary, indent=2, allow_nan=True))
+    write_packing(args.output, result.packing, history=result.history, groups={"contacts": contact_arrays(result)})
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

@@ -1,0 +1,57 @@
+"""MLS (closest jamming) speed: wall time and collisions from a fixed fast-compressed start, one core.
+
+Start: Poisson (seed 2024) -> LS at gamma = 0.5 (1/gamma = 2, a "fast" packing of the paper) to p = 1e12 (not timed).
+Then MLS with the paper's parameters (gamma_0 = 10, f = 2, final rate 1e-4, p_max = 1e12, 20 events per particle).
+Reference: the paper's code takes ~7 min for N = 1e3 at sigma = 0.3 and 10-20 h for N = 1e4; target N = 1e4 <= 1 h.
+
+A run cut by ``--max-wall-time`` prints its progress and an extrapolated total from the collisions per particle of
+the N = 1e3 runs (MLS costs ~1e5 collisions per particle, roughly independent of N); the extrapolation is marked.
+
+    python benchmarks/bench_mls.py                                   # N = 1e3, sigma 0 and 0.3
+    python benchmarks/bench_mls.py --sizes 10000 --max-wall-time 1800
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from spherejam.closest_jamming import find_closest_jamming
+from spherejam.lubachevsky_stillinger import run_ls
+from spherejam.seeding import poisson_packing
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1000])
+    ap.add_argument("--sigmas", type=float, nargs="*", default=[0.0, 0.3])
+    ap.add_argument("--max-wall-time", type=float, default=None, help="cap per MLS run (seconds)")
+    ap.add_argument("--collisions-per-particle", type=float, default=None,
+                    help="for the extrapolation of capped runs (default: from the uncapped runs of this call)")
+    args = ap.parse_args()
+    per_particle = []
+    for n in args.sizes:
+        for sigma in args.sigmas:
+            start = run_ls(poisson_packing(n, sigma, seed=2024), 0.5, seed=1, progress_interval=1e9).packing
+            t0 = time.perf_counter()
+            r = find_closest_jamming(start, seed=1, max_wall_time=args.max_wall_time, progress_interval=60.0)
+            wall = time.perf_counter() - t0
+            c = r.counters
+            line = (f"MLS N={n:>6} sigma={sigma:.1f}: phi_start={start.phi:.5f} phi_J={c['phi_J']:.5f} "
+                    f"stages={c['stages']} stop={c['stop_reason']} collisions={c['collisions']:,} "
+                    f"({c['collisions'] / n:,.0f}/particle) wall={wall:.1f}s = {wall / 60:.1f} min "
+                    f"({c['collisions'] / wall / 1e6:.3f} M collisions/s)")
+            if c["stop_reason"] == "max_wall_time":
+                cpp = args.collisions_per_particle or (sum(per_particle) / len(per_particle) if per_particle else None)
+                if cpp:
+                    est = cpp * n / (c["collisions"] / wall)
+                    line += (f"  [CAPPED; EXTRAPOLATED total ~{est / 60:.0f} min at {cpp:,.0f} collisions/particle]")
+                else:
+                    line += "  [CAPPED]"
+            else:
+                per_particle.append(c["collisions"] / n)
+            print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
