@@ -67,7 +67,8 @@ def main() -> None:
         line = f"  N={n} sigma={sigma}: phi mean {np.mean(phis):.5f} (min {min(phis):.5f}, max {max(phis):.5f})"
         line += f", wall seed 1 {walls[0]:.3f} s"
         if ref and args.rate == 1e-3:
-            line += f"; reference phi {ref[0]:.5f}, {ref[1]} iterations, {ref[2]:.2f} s -> speed-up x{ref[2] / walls[0]:.1f}"
+            line += (f"; reference phi {ref[0]:.5f}, {ref[1]} iterations, {ref[2]:.2f} s"
+                     f" -> speed-up x{ref[2] / walls[0]:.1f}")
         print(line)
 
 

@@ -98,7 +98,8 @@ def test_works_as_snakemake_resource_callables():
     class W:
         rate = "0.01"
 
-    runtime = lambda wildcards, attempt: cr.runtime_minutes("ls", 256, rate=float(wildcards.rate), attempt=attempt)
+    def runtime(wildcards, attempt):
+        return cr.runtime_minutes("ls", 256, rate=float(wildcards.rate), attempt=attempt)
     assert runtime(W(), 1) < runtime(W(), 2)
     assert cr.runtime_minutes("mls", 256, rate=0.01, final_rate=1e-4) > 0  # a generation rate is ignored there
 

@@ -1,6 +1,5 @@
 """The Snakemake workflow: dry runs of every config, schema errors, and a tiny end-to-end run."""
 
-import json
 import shutil
 import subprocess
 import sys

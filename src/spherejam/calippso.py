@@ -105,7 +105,8 @@ class CalippsoResult:
     history : dict of arrays, one row per iteration
         ``sqrt_gamma_minus_1``, ``max_displacement`` (non-rattlers, units of the largest diameter),
         ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cutoff`` and ``s_bound``
-        (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``,
+        (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`), ``n_contacts``,
+        ``n_rattlers``, ``isostatic``,
         ``overlap_correction``.
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, see module docstring).
@@ -666,7 +667,8 @@ def run_calippso(
         history.append(
             sqrt_gamma_minus_1=sqrt_gamma - 1.0, max_displacement=max_s, max_displacement_all=max_s_all, phi=phi,
             n_constraints=len(pi), solve_time=sol.solve_time, cutoff=ell / dia.max(), s_bound=sb / dia.max(),
-            regime=regime, method=METHOD_CODES[sol.method.split("+")[0]], n_contacts=n_contacts, n_rattlers=int(np.count_nonzero(rattler)),
+            regime=regime, method=METHOD_CODES[sol.method.split("+")[0]], n_contacts=n_contacts,
+            n_rattlers=int(np.count_nonzero(rattler)),
             isostatic=int(isostatic), overlap_correction=correction,
         )
         progress.update(

@@ -120,7 +120,9 @@ def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
         f"{p}wall_time": _num(c.get("wall_time")),
     }
     if not prefix:
-        out.update(phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows")))
+        out.update(
+            phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows"))
+        )
     else:
         out[f"{p}phi_J"] = _num(a.get("phi"))
     return out

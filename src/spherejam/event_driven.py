@@ -456,12 +456,14 @@ def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr
         ev_type[i] = MOVE
         ev_partner[i] = -1
     for i in range(n):
-        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, False)
+        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                 nbr, nnb, box, rho0, gamma, skin, False)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
 @njit(cache=True)
-def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
+def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+               nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
                rho0, gamma, rho_list, skin, t, target, count_collisions, t_horizon, counters, acc):
     """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
 
@@ -483,7 +485,8 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nn
             if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
                 return OVERFLOW, t
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -514,11 +517,14 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nn
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
-            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, True)
         else:
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         done = counters[C_COLLISIONS] if count_collisions else counters[C_EVENTS]

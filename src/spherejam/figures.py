@@ -103,8 +103,8 @@ def fig3(ds):
                 m = (ds[key].values == v) & np.isclose(ds.grid_sigma.values, s)
                 # a small horizontal offset per parameter keeps overlapping points visible
                 x = ds.grid_inverse_rate.values[m] * 1.06 ** (k - len(values) / 2)
-                ax.plot(x, ds.grid_phi_J.values[m], mk, ms=5, mfc="none", color=cmap(0.85 * k / max(len(values) - 1, 1)),
-                        label=f"{v:g} (σ = {s:g})")
+                colour = cmap(0.85 * k / max(len(values) - 1, 1))
+                ax.plot(x, ds.grid_phi_J.values[m], mk, ms=5, mfc="none", color=colour, label=f"{v:g} (σ = {s:g})")
         ax.set_xscale("log")
         ax.set_xlabel("inverse compression rate 1/γ of the LS packing")
         ax.set_title(title, loc="left", fontsize=10)

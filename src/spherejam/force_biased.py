@@ -80,7 +80,9 @@ def nominal_density_for_rate(rate) -> float:
 
 def _check_rate(rate) -> float:
     ok = isinstance(rate, (int, float, np.integer, np.floating)) and not isinstance(rate, bool)
-    require(ok and math.isfinite(rate) and 0 < rate < 1, "rate", rate, "the FB contraction rate gamma must be in (0, 1)")
+    require(
+        ok and math.isfinite(rate) and 0 < rate < 1, "rate", rate, "the FB contraction rate gamma must be in (0, 1)"
+    )
     return float(rate)
 
 
@@ -429,7 +431,8 @@ def run_fb(
     rate = _check_rate(rate)
     if phi_nominal is None:
         require(dim == 3, "phi_nominal", None, f"the paper's rule holds for d=3; give phi_nominal for d={dim}")
-        phi_nominal, rule = nominal_density_for_rate(rate), "paper line (ln gamma, phi) through (1e-3, 0.6), (1e-7, 0.7)"
+        phi_nominal = nominal_density_for_rate(rate)
+        rule = "paper line (ln gamma, phi) through (1e-3, 0.6), (1e-7, 0.7)"
     else:
         ok = isinstance(phi_nominal, (int, float, np.integer, np.floating)) and math.isfinite(phi_nominal)
         require(ok and 0 < phi_nominal < 1, "phi_nominal", phi_nominal, "must be in (0, 1)")

@@ -84,7 +84,7 @@ def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
     return i, j, d
 
 
-def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF):
+def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF):  # noqa: E741 (degree l)
     """Steinhardt bond-orientational order of degree ``l`` (even), d = 3 (spec §6.4).
 
     Returns ``(q_global, q_local, q_per_particle, n_neighbours)``: q_global from <Y_lm> over all bonds; q(i) from

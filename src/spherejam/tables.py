@@ -138,13 +138,18 @@ def formatted(name: str, t: pd.DataFrame) -> pd.DataFrame:
     raise InputError(f"table={name!r}: must be table2, table3 or table4")
 
 
+def _tex(text) -> str:
+    for plain, tex in (("_", r"\_"), ("σ", r"$\sigma$"), ("φ", r"$\varphi$"), ("±", r"$\pm$")):
+        text = str(text).replace(plain, tex)
+    return text
+
+
 def _latex(df: pd.DataFrame, caption: str) -> str:
     cols = list(df.columns)
-    esc = lambda s: str(s).replace("σ", r"$\sigma$").replace("φ", r"$\varphi$").replace("±", r"$\pm$").replace("_", r"\_")  # noqa: E731
     lines = [r"\begin{table}", r"\centering", f"\\caption{{{caption}}}", r"\begin{tabular}{l" + "c" * len(cols) + "}",
-             r"\hline", " & ".join([esc(df.index.name or "")] + [esc(c) for c in cols]) + r" \\", r"\hline"]
+             r"\hline", " & ".join([_tex(df.index.name or "")] + [_tex(c) for c in cols]) + r" \\", r"\hline"]
     for idx, row in df.iterrows():
-        lines.append(" & ".join([esc(idx)] + [esc(v) for v in row.values]) + r" \\")
+        lines.append(" & ".join([_tex(idx)] + [_tex(v) for v in row.values]) + r" \\")
     lines += [r"\hline", r"\end{tabular}", r"\end{table}"]
     return "\n".join(lines) + "\n"
 

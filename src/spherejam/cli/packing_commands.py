@@ -80,7 +80,8 @@ def _info(args) -> int:
         return 0
     print(f"{s['path']}")
     print(f"  N = {s['n']}, d = {s['dim']}, L = {s['box']:.10g}")
-    print(f"  phi = {s['phi']:.10f}   polydispersity sigma = {s['polydispersity']:.4f}   size ratio = {s['size_ratio']:.3f}")
+    print(f"  phi = {s['phi']:.10f}   polydispersity sigma = {s['polydispersity']:.4f}"
+          f"   size ratio = {s['size_ratio']:.3f}")
     print(f"  closest pair {s['closest_pair']}: normalised gap {s['min_gap']:.3e}")
     print(f"  algorithm = {s['algorithm']}, seed = {s['seed']}, reduced pressure = {s['reduced_pressure']}")
     if s["parameters"]:
@@ -89,7 +90,8 @@ def _info(args) -> int:
         print(f"  counters: {json.dumps(s['counters'], sort_keys=True)}")
     prov = s["provenance"]
     if prov:
-        print(f"  made by spherejam {prov.get('spherejam_version')} (git {prov.get('git_commit')}) at {prov.get('created')}")
+        print(f"  made by spherejam {prov.get('spherejam_version')} (git {prov.get('git_commit')})"
+              f" at {prov.get('created')}")
     return 0
 
 

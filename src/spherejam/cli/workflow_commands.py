@@ -107,7 +107,8 @@ def _browse(args) -> int:
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
     print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}, {ds.sizes['packing']} packings, "
           f"{ds.sizes.get('grid_run', 0)} validation-grid runs")
-    print(f"  config hash {ds.attrs.get('config_hash')}, git {ds.attrs.get('git_commit')}, created {ds.attrs.get('created')}")
+    print(f"  config hash {ds.attrs.get('config_hash')}, git {ds.attrs.get('git_commit')},"
+          f" created {ds.attrs.get('created')}")
     dim = "grid_run" if args.grid else "packing"
     if args.grid and "grid_run" not in ds.dims:
         raise InputError("--grid: this dataset has no validation-grid runs")
