@@ -40,16 +40,20 @@ def run_seed(purpose):
     return lambda wildcards: run_of(wildcards).seed(EXP.master_seed, purpose)
 
 
-def resources_for(stage, **fixed):
-    """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.cluster_resources)."""
+def resources_for(stage, mls_parameters=None):
+    """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.cluster_resources).
+
+    ``mls_parameters(wildcards)`` gives the MLS initial rate, decrease factor and final rate of MLS jobs.
+    """
 
     def runtime(wildcards, attempt):
-        return cluster_resources.runtime_minutes(stage, n=EXP.n, rate=_rate(wildcards), attempt=attempt, **fixed)
+        extra = mls_parameters(wildcards) if mls_parameters else {}
+        return cluster_resources.runtime_minutes(stage, EXP.n, _rate(wildcards), attempt, **extra)
 
     def mem_mb(wildcards, attempt):
-        return cluster_resources.mem_mb(stage, n=EXP.n, attempt=attempt)
+        return cluster_resources.mem_mb(stage, EXP.n, attempt)
 
-    return {"runtime": runtime, "mem_mb": mem_mb, "cpus_per_task": 1}
+    return {"runtime": runtime, "mem_mb": mem_mb, "cpus_per_task": cluster_resources.cpus_per_task(stage, EXP.n)}
 
 
 def _rate(wildcards):

@@ -23,7 +23,10 @@ rule jam:
     benchmark:
         f"{R}/benchmarks/mls/{RUN}.tsv"
     resources:
-        **resources_for("mls", final_rate=MLS["final_rate"]),
+        **resources_for(
+            "mls",
+            lambda w: {k: MLS[k] for k in ("initial_rate", "decrease_factor", "final_rate")},
+        ),
     shell:
         "spherejam mls {input} --initial-rate {params.initial_rate} --decrease-factor {params.decrease_factor}"
         " --final-rate {params.final_rate} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"

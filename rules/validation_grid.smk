@@ -21,7 +21,10 @@ rule jam_validation_grid:
     benchmark:
         f"{R}/benchmarks/validation/{GRID_RUN}.tsv"
     resources:
-        **resources_for("mls", final_rate=1e-5),
+        **resources_for(
+            "mls",
+            lambda w: {"initial_rate": float(w.g0), "decrease_factor": float(w.factor), "final_rate": float(w.gf)},
+        ),
     shell:
         "spherejam mls {input} --initial-rate {wildcards.g0} --decrease-factor {wildcards.factor}"
         " --final-rate {wildcards.gf} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"

@@ -227,8 +227,8 @@ class LSEngine:
                                self.hpos, self.hkey, self.nbr, self.nnb, self.box, self.rho0, g, self.skin)
             status, t = ed.run_events(
                 self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.hkey,
-                self.nbr, self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m, self.rho0, g,
-                self.rho_list, self.skin, t, target, count_collisions, horizon, counters, acc,
+                self.nbr, self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m,
+                self.rho0, g, self.rho_list, self.skin, t, target, count_collisions, horizon, counters, acc,
             )
             if status == ed.WINDOW_DONE:
                 break
