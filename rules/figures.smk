@@ -8,7 +8,7 @@ rule figure:
     input:
         DATASET,
     output:
-        png=report(f"{R}/figures/{{name}}.png", caption="../report/{name}.rst", category="Figures"),
+        png=report(f"{R}/figures/{{name}}.png", caption="../report/figure.rst", category="Figures"),
         pdf=f"{R}/figures/{{name}}.pdf",
     wildcard_constraints:
         name="|".join(FIGURE_NAMES),

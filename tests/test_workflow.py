@@ -161,3 +161,13 @@ def test_killed_job_rerun_completes(tiny_run, tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     assert read_packing(jammed).phi > 0.55 and (work / "results" / "dataset.nc").exists()
     assert not list((work / "results" / "packings").rglob("*.tmp*"))
+
+
+def test_report_holds_every_figure_and_table(tiny_run, tmp_path):
+    results, cfg = tiny_run
+    report = tmp_path / "report.html"
+    r = snakemake("--report", str(report), "--configfile", str(cfg))
+    assert r.returncode == 0, r.stderr[-3000:]
+    text = report.read_text(errors="replace")
+    for name in ("fig2", "fig3", "fig4", "fig5", "fig7", "structure", "forces", "table2", "table3", "table4"):
+        assert name in text
