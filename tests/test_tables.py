@@ -37,6 +37,18 @@ def synthetic_dataset():
     return ds
 
 
+def test_runs_cut_by_wall_time_are_left_out():
+    ds = synthetic_dataset()
+    fast_ls = (ds.protocol.values == "ls") & (ds.sigma.values == 0.3) & (ds.inverse_rate.values < 5)
+    completed = np.ones(ds.sizes["packing"])
+    worst = np.flatnonzero(fast_ls)[np.argmax(ds.phi_J.values[fast_ls])]
+    completed[worst] = 0
+    ds["mls_completed"] = ("packing", completed)
+    t3 = compute_tables(ds)["table3"].set_index("sigma")
+    assert t3.loc[0.3, "ls_n_fast"] == fast_ls.sum() - 1
+    assert t3.loc[0.3, "ls_phi_max_fast"] < ds.phi_J.values[worst]
+
+
 def test_tables_recover_known_values(tmp_path):
     ds = synthetic_dataset()
     t = compute_tables(ds)

@@ -39,11 +39,13 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "mls_stages": ("compression stages of the MLS run", "1"),
     "mls_windows": ("pressure windows of the MLS run", "1"),
     "mls_wall_time": ("wall time of the MLS run", "s"),
+    "mls_completed": ("1 if MLS stopped by its own rule (final rate reached or jammed), 0 if cut by max_wall_time", "1"),
     "grid_phi": ("packing fraction of the source LS packing", "1"),
     "grid_phi_J": ("closest jamming density (MLS with the grid's parameters)", "1"),
     "grid_collisions": ("collisions of the MLS run", "1"),
     "grid_stages": ("compression stages of the MLS run", "1"),
     "grid_wall_time": ("wall time of the MLS run", "s"),
+    "grid_completed": ("1 if MLS stopped by its own rule, 0 if cut by max_wall_time", "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
@@ -61,6 +63,10 @@ COORDS: dict[str, tuple[str, str]] = {
     "initial_rate": ("MLS initial compression rate", "1"),
     "final_rate": ("MLS final compression rate", "1"),
 }
+
+
+#: MLS stop reasons that end the search by the paper's rule (anything else, e.g. max_wall_time, is incomplete).
+MLS_COMPLETED = ("final_rate", "jammed")
 
 
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
@@ -118,6 +124,7 @@ def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
         f"{p}collisions": _num(c.get("collisions")),
         f"{p}stages": _num(c.get("stages")),
         f"{p}wall_time": _num(c.get("wall_time")),
+        f"{p}completed": float(c.get("stop_reason", "final_rate") in MLS_COMPLETED),
     }
     if not prefix:
         out.update(

@@ -13,7 +13,7 @@ import numpy as np
 
 from .atomic import atomic_output
 from .errors import InputError
-from .tables import TABLE2_ROWS, compute_tables
+from .tables import TABLE2_ROWS, completed_phi_J, compute_tables
 
 #: Table 4 of the paper (N = 10^4) where legible, for comparison in Fig. 5. phi_GCP is the mean of the four
 #: Table 2 rows of the paper (see shared/reference/algorithms.md Section 8.3); sigma = 0 takes 0.65.
@@ -66,7 +66,8 @@ def fig2(ds):
         for s in sigmas:
             m = _sel(ds, protocol, s)
             if m.any() and var in ds:
-                ax.plot(ds.inverse_rate.values[m], ds[var].values[m], "o", ms=4, color=col[s], label=f"σ = {s:g}")
+                y = completed_phi_J(ds) if var == "phi_J" else ds[var].values
+                ax.plot(ds.inverse_rate.values[m], y[m], "o", ms=4, color=col[s], label=f"σ = {s:g}")
             rcp = t4.loc[np.isclose(t4.sigma, s), "phi_RCP"]
             if len(rcp) and np.isfinite(rcp.iloc[0]):
                 ax.axhline(rcp.iloc[0], xmin=0, xmax=0.06, color=col[s], lw=2)
@@ -94,6 +95,9 @@ def fig3(ds):
             _no_data(ax, "validation grid disabled in this experiment")
         return fig
     markers = {s: m for s, m in zip(sorted(set(ds.grid_sigma.values.tolist())), "osD^v")}
+    grid_phi_j = ds.grid_phi_J.values.astype(float).copy()
+    if "grid_completed" in ds:
+        grid_phi_j[ds.grid_completed.values != 1] = np.nan  # cut by max_wall_time: not a closest-jamming density
     for ax, key, title in ((axes[0], "decrease_factor", "(a) decrease factor"),
                            (axes[1], "initial_rate", "(b) initial rate")):
         values = sorted(set(ds[key].values.tolist()))
@@ -104,7 +108,7 @@ def fig3(ds):
                 # a small horizontal offset per parameter keeps overlapping points visible
                 x = ds.grid_inverse_rate.values[m] * 1.06 ** (k - len(values) / 2)
                 colour = cmap(0.85 * k / max(len(values) - 1, 1))
-                ax.plot(x, ds.grid_phi_J.values[m], mk, ms=5, mfc="none", color=colour, label=f"{v:g} (σ = {s:g})")
+                ax.plot(x, grid_phi_j[m], mk, ms=5, mfc="none", color=colour, label=f"{v:g} (σ = {s:g})")
         ax.set_xscale("log")
         ax.set_xlabel("inverse compression rate 1/γ of the LS packing")
         ax.set_title(title, loc="left", fontsize=10)
@@ -126,7 +130,8 @@ def fig4(ds):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, protocol, title in ((axes[0], "ls", "(a) LS, 1/γ < {:g}"), (axes[1], "fb", "(b) FB, 1/γ < {:g}")):
         limit = fast[f"{protocol}_max_inverse_rate"]
-        values = [ds.phi_J.values[_sel(ds, protocol, s) & (ds.inverse_rate.values < limit)] for s in sigmas]
+        phi_j = completed_phi_J(ds)
+        values = [phi_j[_sel(ds, protocol, s) & (ds.inverse_rate.values < limit)] for s in sigmas]
         allv = np.concatenate(values) if values else np.array([])
         allv = allv[np.isfinite(allv)]
         if len(allv) == 0:
@@ -173,7 +178,8 @@ def fig7(ds):
     for ax, (label, protocol, var, _) in zip(axes.flat, TABLE2_ROWS):
         for s in sigmas:
             m = _sel(ds, protocol, s)
-            ax.plot(np.sqrt(ds.rate.values[m]), ds[var].values[m], "o", ms=3, color=col[s], label=f"σ = {s:g}")
+            y = completed_phi_J(ds) if var == "phi_J" else ds[var].values
+            ax.plot(np.sqrt(ds.rate.values[m]), y[m], "o", ms=3, color=col[s], label=f"σ = {s:g}")
             row = t2[(t2.curve == label) & np.isclose(t2.sigma, s)]
             if len(row) and np.isfinite(row.phi_gcp.iloc[0]):
                 r = row.iloc[0]

@@ -37,7 +37,16 @@ def _frame(ds) -> pd.DataFrame:
     df = pd.DataFrame({c: ds[c].values for c in cols})
     for name in ("phi", "phi_J"):
         df[name] = ds[name].values if name in ds else np.nan
+    df["phi_J"] = completed_phi_J(ds) if "phi_J" in ds else np.nan
     return df
+
+
+def completed_phi_J(ds) -> np.ndarray:
+    """phi_J with NaN where the MLS run was cut by a wall-time limit (``mls_completed`` = 0)."""
+    phi_j = ds["phi_J"].values.astype(float).copy()
+    if "mls_completed" in ds:
+        phi_j[ds["mls_completed"].values != 1] = np.nan
+    return phi_j
 
 
 def table2(ds) -> pd.DataFrame:
