@@ -77,6 +77,7 @@ def test_tiny_end_to_end(tiny_run):
     assert np.all(np.isfinite(ds.phi_J.values))
     assert np.all(ds.phi_J.values >= ds.phi.values - 1e-12)
     assert np.all(ds.pressure_J.values >= 1e11)
+    assert np.all(ds.mls_completed.values == 1)  # no wall-time cap in tiny.yaml
     assert np.all((ds.phi_J.values > 0.55) & (ds.phi_J.values < 0.74))
     # provenance travels with the dataset
     for key in ("config", "config_hash", "git_commit", "package_versions", "created"):
