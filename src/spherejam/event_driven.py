@@ -31,6 +31,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .neighbours import fold
+
 MOVE = 0
 COLLISION = 1
 SKIN = 2
@@ -114,16 +116,6 @@ def heap_build(heap, hpos, hkey, key, n):
 
 
 # --- pair kinematics -------------------------------------------------------------------------------------------
-
-
-@njit(cache=True, inline="always")
-def fold(dx, box, half):
-    """Minimum image of a difference known to lie in (-1.5 L, 1.5 L)."""
-    if dx > half:
-        return dx - box
-    if dx < -half:
-        return dx + box
-    return dx
 
 
 @njit(cache=True, inline="always")

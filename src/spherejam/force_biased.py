@@ -43,7 +43,7 @@ from numba import njit
 from . import neighbours
 from .checkpoint import load_checkpoint, save_checkpoint
 from .errors import PackingFileError, SimulationError, require
-from .neighbours import cell_sort
+from .neighbours import cell_sort, fold
 from .packing import Packing, ball_volume
 from .runs import Progress, RunResult
 
@@ -89,18 +89,8 @@ def _check_rate(rate) -> float:
 # --- numba kernels ----------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
-def _fold(dx, box, half):
-    """Minimum image of a difference of two coordinates in [0, box) (one fold suffices)."""
-    if dx > half:
-        return dx - box
-    if dx < -half:
-        return dx + box
-    return dx
-
-
 @njit(cache=True, inline="always")
-def _scan_cell(ps, ds, order, begin, end, a, i, shift, fold, box, rho_out, skin, pairs, count):
+def _scan_cell(ps, ds, order, begin, end, a, i, shift, wrap, box, rho_out, skin, pairs, count):
     """Append to ``pairs`` the pairs of sphere a (index i) with the spheres begin..end-1 of one cell, kept if sphere
     a is the larger one (ties: the lower index); False if ``pairs`` is full."""
     dim = ps.shape[1]
@@ -115,8 +105,8 @@ def _scan_cell(ps, ds, order, begin, end, a, i, shift, fold, box, rho_out, skin,
         r2 = 0.0
         for q in range(dim):
             dx = ps[b, q] + shift[q] - ps[a, q]
-            if fold:
-                dx = _fold(dx, box, half)
+            if wrap:
+                dx = fold(dx, box, half)
             r2 += dx * dx
         cut = rho_out * 0.5 * (di + dj) + skin
         if r2 < cut * cut:
@@ -196,19 +186,19 @@ def _build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
         w = stencil[a]
         if w == 1 and m >= 3:
             continue
-        fold = 2 * w + 1 > m
+        wrap = 2 * w + 1 > m
         c = cell[order[a]]
         for q in range(dim):
             coords[q] = c % m
             c //= m
-        span = m if fold else 2 * w + 1
+        span = m if wrap else 2 * w + 1
         for o in range(span**dim):
             rem = o
             for q in range(dim):
-                offset[q] = (rem % span - coords[q]) if fold else (rem % span - w)
+                offset[q] = (rem % span - coords[q]) if wrap else (rem % span - w)
                 rem //= span
             cn = _neighbour_cell_shift(coords, offset, m, box, shift)
-            if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, fold, box, rho_out,
+            if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, wrap, box, rho_out,
                               skin, pairs, count):
                 return failed
     # CSR by the lower index, each row sorted: the force sums then do not depend on when or how the list was built
@@ -249,7 +239,7 @@ def _forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
             j = nbr[p]
             r2 = 0.0
             for a in range(dim):
-                dx[a] = _fold(positions[i, a] - positions[j, a], box, half)
+                dx[a] = fold(positions[i, a] - positions[j, a], box, half)
                 r2 += dx[a] * dx[a]
             dij = 0.5 * (di + diameters[j])
             h2 = r2 / (dij * dij)
@@ -268,7 +258,7 @@ def _pair_ratio(positions, diameters, box, i, j):
     half = 0.5 * box
     r2 = 0.0
     for a in range(positions.shape[1]):
-        dx = _fold(positions[i, a] - positions[j, a], box, half)
+        dx = fold(positions[i, a] - positions[j, a], box, half)
         r2 += dx * dx
     dij = 0.5 * (diameters[i] + diameters[j])
     return np.sqrt(r2 / (dij * dij))

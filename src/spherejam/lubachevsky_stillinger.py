@@ -105,18 +105,23 @@ class LSEngine:
         self.skin_fraction = float(skin_fraction)
         self.list_margin = float(list_margin)
         self.dilute_neighbours = float(dilute_neighbours)
-        self.ev_time = np.zeros(n)
-        self.ev_type = np.zeros(n, dtype=np.int8)
-        self.ev_partner = np.full(n, -1, dtype=np.int32)
-        self.heap = np.zeros(n, dtype=np.int32)
-        self.hpos = np.zeros(n, dtype=np.int32)
-        self.hkey = np.zeros(n)
+        self.allocate_events()
         self.list_rebuilds = 0
         self.perm = np.arange(n)  # internal index -> input index (particles are renumbered in cell order)
         self.refs = None  # set by rebuild_lists
         self.rebuild_lists(0.0)
 
     # --- neighbour lists ------------------------------------------------------------------------------------
+
+    def allocate_events(self) -> None:
+        """Per-particle event arrays and the heap (contents are set by the first event initialisation)."""
+        n = self.n
+        self.ev_time = np.zeros(n)
+        self.ev_type = np.zeros(n, dtype=np.int8)
+        self.ev_partner = np.full(n, -1, dtype=np.int32)
+        self.heap = np.zeros(n, dtype=np.int32)
+        self.hpos = np.zeros(n, dtype=np.int32)
+        self.hkey = np.zeros(n)
     def rebuild_lists(self, t: float) -> None:
         """Rebuild all Verlet lists at time t (every particle must be synchronised to t)."""
         n, box = self.n, self.box
@@ -475,12 +480,7 @@ def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options
     engine.skin_fraction = float(opts["skin_fraction"])
     engine.list_margin = float(opts["list_margin"])
     engine.dilute_neighbours = float(opts["dilute_neighbours"])
-    engine.ev_time = np.zeros(n)
-    engine.ev_type = np.zeros(n, dtype=np.int8)
-    engine.ev_partner = np.full(n, -1, dtype=np.int32)
-    engine.heap = np.zeros(n, dtype=np.int32)
-    engine.hpos = np.zeros(n, dtype=np.int32)
-    engine.hkey = np.zeros(n)
+    engine.allocate_events()
 
 
 def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0, target_phi: float | None = None,

@@ -15,6 +15,16 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, inline="always")
+def fold(dx, box, half):
+    """Minimum image of a difference known to lie in (-1.5 L, 1.5 L) (coordinates kept in [0, L)): one fold."""
+    if dx > half:
+        return dx - box
+    if dx < -half:
+        return dx + box
+    return dx
+
+
 @njit(cache=True)
 def minimum_image(dx, box):
     """Fold a coordinate difference into [-box/2, box/2]."""
