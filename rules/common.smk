@@ -40,6 +40,17 @@ def run_seed(purpose):
     return lambda wildcards: run_of(wildcards).seed(EXP.master_seed, purpose)
 
 
+def mls_limits():
+    """The MLS cut-off flags of the config (empty when the search is uncut, as in the paper)."""
+    mls = config["mls"]
+    flags = []
+    if mls.get("max_collisions_per_particle") is not None:
+        flags.append(f"--max-collisions-per-particle {mls['max_collisions_per_particle']}")
+    if mls.get("max_wall_time") is not None:
+        flags.append(f"--max-wall-time {mls['max_wall_time']}")
+    return " ".join(flags)
+
+
 def resources_for(stage, mls_parameters=None):
     """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.cluster_resources).
 

@@ -162,11 +162,22 @@ def test_deterministic():
         ({"events_per_particle": 0}, "events_per_particle"),
         ({"seed": -3}, "seed"),
         ({"max_wall_time": -1.0}, "max_wall_time"),
+        ({"max_collisions": 0}, "max_collisions"),
     ],
 )
 def test_bad_parameters_are_rejected(kwargs, field):
     with pytest.raises(InputError, match=field):
         find_closest_jamming(poisson_packing(10, 0.0, seed=1), **kwargs)
+
+
+def test_max_collisions_cut_is_deterministic_and_marked():
+    start = poisson_packing(60, 0.1, seed=9)
+    a = find_closest_jamming(start, seed=1, max_collisions=5000, **QUICK)
+    b = find_closest_jamming(start, seed=1, max_collisions=5000, **QUICK)
+    assert a.counters["stop_reason"] == "max_collisions"
+    assert 5000 <= a.counters["collisions"] < 5000 + 40 * start.n  # cut at the first window end past the cap
+    assert np.array_equal(a.packing.positions, b.packing.positions)
+    assert a.packing.check().n_overlaps == 0
 
 
 def test_cli_mls(tmp_path):
@@ -184,3 +195,6 @@ def test_cli_mls(tmp_path):
     assert packing.metadata["counters"]["phi_J"] == pytest.approx(packing.phi)
     assert "stage" in history
     assert main(["mls", str(src), "-o", str(out), "--decrease-factor", "0.5"]) == 2
+    assert main(["mls", str(src), "-o", str(out), "--max-collisions-per-particle", "-1"]) == 2
+    assert main(argv + ["--max-collisions-per-particle", "10"]) == 0
+    assert read_packing(out).metadata["counters"]["stop_reason"] == "max_collisions"

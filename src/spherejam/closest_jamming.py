@@ -104,7 +104,8 @@ class MLSController(Controller):
 
 def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrease_factor: float = 2.0,
                          final_rate: float = 1e-4, p_max: float = 1e12, max_equilibration_windows: int = 50,
-                         seed: int = 0, events_per_particle: int = 20, max_wall_time: float | None = None,
+                         seed: int = 0, events_per_particle: int = 20, max_collisions: int | None = None,
+                         max_wall_time: float | None = None,
                          checkpoint=None, checkpoint_interval: float = 300.0, progress_interval: float = 10.0,
                          count_collisions_only: bool = False, temperature: float = DEFAULT_TEMPERATURE,
                          callback: Callable[[int, WindowStats], None] | None = None,
@@ -125,6 +126,9 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
         Reduced-pressure threshold (> 1; paper: 1e12).
     max_equilibration_windows : int
         Zero-rate windows in a row with p >= p_max after which the packing counts as jammed (paper: 50).
+    max_collisions : int, optional
+        Cut the search after this many collisions in total (``stop_reason="max_collisions"``). Unlike
+        ``max_wall_time`` the cut is deterministic: the same input and seed give the same output on any machine.
     seed, events_per_particle, max_wall_time, checkpoint, checkpoint_interval, progress_interval,
     count_collisions_only, temperature, callback, engine_options :
         As in :func:`spherejam.lubachevsky_stillinger.run_ls`. A ``max_wall_time`` stop keeps the checkpoint, so a
@@ -135,8 +139,8 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     RunResult
         The jammed packing (actual diameters; metadata ``algorithm="mls"``), per-window history (as LS plus
         ``stage``) and counters: ``phi_J``, ``phi_initial``, ``stages``, ``rate_decreases``,
-        ``equilibration_windows``, ``final_rate_reached``, ``stop_reason`` ("final_rate", "jammed" or
-        "max_wall_time"), ``collisions``, ``events``, ``windows``, ``wall_time``.
+        ``equilibration_windows``, ``final_rate_reached``, ``stop_reason`` ("final_rate", "jammed",
+        "max_collisions" or "max_wall_time"), ``collisions``, ``events``, ``windows``, ``wall_time``.
     """
     validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
                     max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
@@ -147,17 +151,20 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     require(_finite(final_rate) and final_rate > 0, "final_rate", final_rate, "must be a finite number > 0")
     require(isinstance(max_equilibration_windows, (int, np.integer)) and max_equilibration_windows >= 1,
             "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
+    require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
+            "max_collisions", max_collisions, "must be None or an integer >= 1")
     parameters = {
         "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),
         "final_rate": float(final_rate), "p_max": float(p_max),
         "max_equilibration_windows": int(max_equilibration_windows), "seed": int(seed),
         "events_per_particle": int(events_per_particle), "max_wall_time": max_wall_time,
+        "max_collisions": None if max_collisions is None else int(max_collisions),
         "count_collisions_only": bool(count_collisions_only), "temperature": float(temperature),
     }
     controller = MLSController(initial_rate, decrease_factor, final_rate, p_max, max_equilibration_windows)
     result = drive(packing, controller, algorithm="mls", parameters=parameters, seed=seed,
                    events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
-                   temperature=temperature, target_phi=None, max_collisions=None, max_wall_time=max_wall_time,
+                   temperature=temperature, target_phi=None, max_collisions=max_collisions, max_wall_time=max_wall_time,
                    checkpoint=checkpoint, checkpoint_interval=checkpoint_interval,
                    progress_interval=progress_interval, callback=callback, engine_options=engine_options)
     result.counters["phi_J"] = result.counters["phi_final"]

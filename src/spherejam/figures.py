@@ -97,7 +97,7 @@ def fig3(ds):
     markers = {s: m for s, m in zip(sorted(set(ds.grid_sigma.values.tolist())), "osD^v")}
     grid_phi_j = ds.grid_phi_J.values.astype(float).copy()
     if "grid_completed" in ds:
-        grid_phi_j[ds.grid_completed.values != 1] = np.nan  # cut by max_wall_time: not a closest-jamming density
+        grid_phi_j[ds.grid_completed.values != 1] = np.nan  # cut MLS run: not a closest-jamming density
     for ax, key, title in ((axes[0], "decrease_factor", "(a) decrease factor"),
                            (axes[1], "initial_rate", "(b) initial rate")):
         values = sorted(set(ds[key].values.tolist()))

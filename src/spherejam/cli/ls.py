@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import require
 from . import finite_float, int_at_least, seed_int
 
 
@@ -40,6 +41,8 @@ def register(sub) -> None:
     p.add_argument("--final-rate", type=finite_float, default=1e-4, help="termination rate (default 1e-4)")
     p.add_argument("--max-equilibration-windows", type=int_at_least(1), default=50,
                    help="zero-rate windows with p >= p_max that mean 'jammed' (default 50)")
+    p.add_argument("--max-collisions-per-particle", type=finite_float, default=None,
+                   help="cut the search after this many collisions per particle (deterministic; default: no cut)")
     p.set_defaults(func=_mls)
 
 
@@ -77,8 +80,13 @@ def _mls(args) -> int:
     from ..packing_io import read_packing
 
     packing = read_packing(args.input)
+    max_collisions = None
+    if args.max_collisions_per_particle is not None:
+        require(args.max_collisions_per_particle > 0, "--max-collisions-per-particle",
+                args.max_collisions_per_particle, "must be > 0")
+        max_collisions = max(1, int(round(args.max_collisions_per_particle * packing.n)))
     result = find_closest_jamming(
         packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,
-        max_equilibration_windows=args.max_equilibration_windows, **_options(args),
+        max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions, **_options(args),
     )
     return _finish(args, result, f"MLS stages={result.counters['stages']}")
