@@ -39,13 +39,13 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "mls_stages": ("compression stages of the MLS run", "1"),
     "mls_windows": ("pressure windows of the MLS run", "1"),
     "mls_wall_time": ("wall time of the MLS run", "s"),
-    "mls_completed": ("1 if MLS stopped by its own rule (final rate or jammed), 0 if cut by max_collisions_per_particle or max_wall_time", "1"),
+    "mls_completed": ("1 if MLS stopped by its own rule (final rate or jammed), 0 if cut (collision or wall-time cap)", "1"),
     "grid_phi": ("packing fraction of the source LS packing", "1"),
     "grid_phi_J": ("closest jamming density (MLS with the grid's parameters)", "1"),
     "grid_collisions": ("collisions of the MLS run", "1"),
     "grid_stages": ("compression stages of the MLS run", "1"),
     "grid_wall_time": ("wall time of the MLS run", "s"),
-    "grid_completed": ("1 if MLS stopped by its own rule, 0 if cut by max_collisions_per_particle or max_wall_time", "1"),
+    "grid_completed": ("1 if MLS stopped by its own rule, 0 if cut (collision or wall-time cap)", "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
