@@ -39,7 +39,7 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "mls_stages": ("compression stages of the MLS run", "1"),
     "mls_windows": ("pressure windows of the MLS run", "1"),
     "mls_wall_time": ("wall time of the MLS run", "s"),
-    "mls_completed": ("1 if MLS stopped by its own rule (final rate or jammed), 0 if cut (collision or wall-time cap)", "1"),
+    "mls_completed": ("1 if MLS stopped by its own rule (final rate or jammed), 0 if cut by a cap", "1"),
     "grid_phi": ("packing fraction of the source LS packing", "1"),
     "grid_phi_J": ("closest jamming density (MLS with the grid's parameters)", "1"),
     "grid_collisions": ("collisions of the MLS run", "1"),
