@@ -297,3 +297,34 @@ def test_window_length_switch_counts_events_or_collisions():
     assert np.all(by_collisions.history["collisions"] == 20 * 200)
     assert np.all(by_collisions.history["events"] > 20 * 200)
     assert by_collisions.packing.metadata["parameters"]["count_collisions_only"] is True
+
+
+def test_event_heap_stays_ordered_under_random_updates(rng):
+    """Indexed heap: after random key changes the root holds the minimum and positions/keys stay consistent."""
+    for n in (1, 2, 5, 37, 1000):
+        key = rng.exponential(size=n)
+        heap, hpos, hkey = np.zeros(n, np.int32), np.zeros(n, np.int32), np.zeros(n)
+        ed.heap_build(heap, hpos, hkey, key, n)
+        for _ in range(3 * n):
+            i = int(rng.integers(n))
+            key[i] = key[i] + rng.normal() if rng.random() < 0.5 else float(rng.exponential())
+            ed.heap_update(heap, hpos, hkey, i, key[i], n)
+        assert np.array_equal(heap[hpos], np.arange(n))
+        assert np.array_equal(hkey, key[heap])
+        assert hkey[0] == key.min()
+        parents = (np.arange(1, n) - 1) // ed.HEAP_ARITY
+        assert np.all(hkey[parents] <= hkey[1:])
+
+
+def test_engine_keeps_cache_line_alignment_and_input_order():
+    """st and neighbour rows start on 64-byte lines; the cell-order renumbering is undone on output."""
+    packing = poisson_packing(300, 0.2, seed=8)
+    eng = _engine_for(packing, 0.1)
+    assert not np.array_equal(eng.perm, np.arange(packing.n))  # particles were renumbered
+    for _ in range(3):
+        eng.window(20 * packing.n)
+        assert eng.st.ctypes.data % 64 == 0 and eng.nbr.ctypes.data % 64 == 0 and eng.nbr.shape[1] % 16 == 0
+    eng.rebuild_lists(0.0)
+    assert eng.st.ctypes.data % 64 == 0
+    nominal = packing.diameters / packing.diameters.mean()
+    assert np.array_equal(eng.nominal, nominal)  # distinct diameters identify the particles

@@ -9,7 +9,7 @@ State (structure of arrays, one cache line per particle)
     (positions are advanced lazily, x(t) = x_i + v_i (t - t_i)), velocity, and nominal diameter D_i (mean 1).
     Actual diameters are rho(t) D_i with rho(t) = rho0 + gamma t (gamma = d rho/dt, the paper's compression rate).
 
-Events (Lubachevsky 1991: one scheduled event per particle, kept in an indexed binary min-heap)
+Events (Lubachevsky 1991: one scheduled event per particle, kept in an indexed 4-ary min-heap)
     ``MOVE``      re-predict only (an invalidated prediction, or the initial state),
     ``COLLISION`` with ``ev_partner[i]``; the partner always holds the mirror event (same time, partner i),
     ``SKIN``      the particle leaves its Verlet skin sphere: its neighbour list is rebuilt locally.
@@ -24,12 +24,20 @@ Neighbour lists (exact at every density)
     are set from the *actual* diameters, so growth from phi ~ 1e-5 to jamming stays exact and O(N) per sweep.
     Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold is always
     the minimum image (every list cutoff is < L/2).
+
+Speed (the hot loop is a prediction over ~10 neighbours)
+    Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
+    as much as a whole pair test); neighbours' rows are prefetched before use, so cache misses overlap; the caller
+    keeps ``st`` and ``nbr`` on 64-byte boundaries and renumbers particles in cell order at every full rebuild.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .neighbours import fold
 
@@ -43,6 +51,9 @@ HORIZON = 1  #: the next event lies beyond the time horizon; every particle is s
 OVERFLOW = 2  #: a neighbour list is full; enlarge the capacity and call again (state untouched)
 INCONSISTENT = 3  #: an event time went backwards or became NaN
 
+#: Children per node of the event heap.
+HEAP_ARITY = 4
+
 #: Indices into the integer counter array of a window.
 C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
 N_COUNTERS = 5
@@ -50,14 +61,38 @@ N_COUNTERS = 5
 _INF = np.inf
 
 
-# --- indexed binary min-heap over particles, keyed by ev_time ------------------------------------------------
+@intrinsic
+def _prefetch_row(typingctx, arr, i):
+    """Hint the CPU to load row i of a 2-d array (llvm.prefetch, no fault on any address): the neighbours' rows
+    then arrive in parallel instead of one cache miss at a time behind the branches of the prediction loop."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 2 and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        aryty, idxty = signature.args
+        ary = context.make_array(aryty)(context, builder, args[0])
+        row = context.cast(builder, args[1], idxty, types.intp)
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [row, context.get_constant(types.intp, 0)])
+        i8p = ir.IntType(8).as_pointer()
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]),
+                                            "llvm.prefetch")
+        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
+        return context.get_dummy_value()
+
+    return types.void(arr, i), codegen
+
+
+# --- indexed 4-ary min-heap over particles, keyed by ev_time ------------------------------------------------------
+# Four children per node: half the depth of a binary heap, and the four child keys share one or two cache lines.
+# Parent of k: (k - 1) >> 2; children: 4 k + 1 .. 4 k + 4.
 
 
 @njit(cache=True, inline="always")
 def _sift_up(heap, hpos, hkey, k, i, ki):
     """Place particle i with key ki at hole k, moving it towards the root."""
     while k > 0:
-        parent = (k - 1) >> 1
+        parent = (k - 1) >> 2
         if hkey[parent] <= ki:
             break
         p = heap[parent]
@@ -74,15 +109,28 @@ def _sift_up(heap, hpos, hkey, k, i, ki):
 def _sift_down(heap, hpos, hkey, k, i, ki, n):
     """Place particle i with key ki at hole k, moving it towards the leaves."""
     while True:
-        c = 2 * k + 1
+        c = 4 * k + 1
         if c >= n:
             break
         cv = hkey[c]
-        if c + 1 < n:
-            cv2 = hkey[c + 1]
-            if cv2 < cv:
-                c += 1
-                cv = cv2
+        if c + 3 < n:
+            # branch-free minimum of the four children (selects, not jumps: the winner is unpredictable)
+            v1 = hkey[c + 1]
+            v2 = hkey[c + 2]
+            v3 = hkey[c + 3]
+            c01 = c + 1 if v1 < cv else c
+            v01 = min(cv, v1)
+            c23 = c + 3 if v3 < v2 else c + 2
+            v23 = min(v2, v3)
+            c = c23 if v23 < v01 else c01
+            cv = min(v01, v23)
+        else:
+            c0 = c
+            for q in range(c0 + 1, n):
+                v = hkey[q]
+                if v < cv:
+                    cv = v
+                    c = q
         if ki <= cv:
             break
         p = heap[c]
@@ -99,7 +147,7 @@ def _sift_down(heap, hpos, hkey, k, i, ki, n):
 def heap_update(heap, hpos, hkey, i, ki, n):
     """Give particle i the key ki and restore the heap (keys are stored in heap order: no indirection)."""
     k = hpos[i]
-    if k > 0 and hkey[(k - 1) >> 1] > ki:
+    if k > 0 and hkey[(k - 1) >> 2] > ki:
         _sift_up(heap, hpos, hkey, k, i, ki)
     else:
         _sift_down(heap, hpos, hkey, k, i, ki, n)
@@ -111,7 +159,7 @@ def heap_build(heap, hpos, hkey, key, n):
         heap[k] = k
         hkey[k] = key[k]
         hpos[k] = k
-    for k in range(n // 2 - 1, -1, -1):
+    for k in range((n - 2) // 4, -1, -1):
         _sift_down(heap, hpos, hkey, k, heap[k], hkey[k], n)
 
 
@@ -161,10 +209,11 @@ def skin_exit_delay(dx, dy, dz, vx, vy, vz, h):
     if a == 0.0:
         return _INF
     b = dx * vx + dy * vy + dz * vz
-    disc = b * b - a * c
-    if b > 0.0:
-        return -c / (b + np.sqrt(disc))
-    return (np.sqrt(disc) - b) / a
+    sq = np.sqrt(b * b - a * c)
+    # cancellation-free root; the sign of b is random, so select instead of branching
+    num = -c if b > 0.0 else sq - b
+    den = b + sq if b > 0.0 else a
+    return num / den
 
 
 @njit(cache=True)
@@ -210,13 +259,47 @@ def _wrap(x, box):
     return x
 
 
+@njit(cache=True, inline="always")
+def _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, out, row):
+    """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin (3x3x3 cells around the point) to
+    ``out[row, :]``; returns the count (entries beyond the row's capacity are counted, not written)."""
+    half = 0.5 * box
+    cap = out.shape[1]
+    c = _cell_of(x, y, z, box, m)
+    cz = c // (m * m)
+    cy = (c // m) % m
+    cx = c % m
+    di = st[i, 7]
+    count = 0
+    nd = 3 if m >= 3 else 1
+    for oz in range(nd):
+        for oy in range(nd):
+            for ox in range(nd):
+                cc = 0
+                if m >= 3:
+                    cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
+                j = head[cc]
+                while j >= 0:
+                    if j != i:
+                        dx = fold(refs[j, 0] - x, box, half)
+                        dy = fold(refs[j, 1] - y, box, half)
+                        dz = fold(refs[j, 2] - z, box, half)
+                        cut = rho_list * 0.5 * (di + st[j, 7]) + skin
+                        if dx * dx + dy * dy + dz * dz < cut * cut:
+                            if count < cap:
+                                out[row, count] = j
+                            count += 1
+                    j = nxt[j]
+    return count
+
+
 @njit(cache=True)
-def build_lists(st, box, rho_list, skin, m, cap):
-    """All neighbour lists from scratch; every particle must be synchronised.
+def build_lists(st, box, rho_list, skin, m, nbr):
+    """All neighbour lists from scratch into ``nbr`` (N x cap); every particle must be synchronised.
 
     Wraps positions into [0, L), sets the reference centres to them and links the cells. Returns
-    ``(refs, nbr, nnb, head, nxt, prv, cellof, max_count)``; if ``max_count > cap`` the lists are incomplete and the
-    caller must call again with a larger ``cap``.
+    ``(refs, nnb, head, nxt, prv, cellof, max_count)``; if ``max_count > cap`` the lists are incomplete and the
+    caller must call again with a larger ``nbr``.
     """
     n = st.shape[0]
     refs = np.empty((n, 3))
@@ -236,72 +319,15 @@ def build_lists(st, box, rho_list, skin, m, cap):
         if head[c] >= 0:
             prv[head[c]] = i
         head[c] = i
-    nbr = np.empty((n, cap), dtype=np.int32)
     nnb = np.zeros(n, dtype=np.int32)
-    half = 0.5 * box
+    cap = nbr.shape[1]
     max_count = 0
     for i in range(n):
-        c = cellof[i]
-        cz = c // (m * m)
-        cy = (c // m) % m
-        cx = c % m
-        count = 0
-        ndz = 3 if m >= 3 else 1
-        for oz in range(ndz):
-            for oy in range(ndz):
-                for ox in range(ndz):
-                    if m >= 3:
-                        cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
-                    else:
-                        cc = 0
-                    j = head[cc]
-                    while j >= 0:
-                        if j != i:
-                            dx = fold(refs[j, 0] - refs[i, 0], box, half)
-                            dy = fold(refs[j, 1] - refs[i, 1], box, half)
-                            dz = fold(refs[j, 2] - refs[i, 2], box, half)
-                            cut = rho_list * 0.5 * (st[i, 7] + st[j, 7]) + skin
-                            if dx * dx + dy * dy + dz * dz < cut * cut:
-                                if count < cap:
-                                    nbr[i, count] = j
-                                count += 1
-                        j = nxt[j]
+        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, m, rho_list, skin, head,
+                                   nxt, nbr, i)
         nnb[i] = min(count, cap)
         max_count = max(max_count, count)
-    return refs, nbr, nnb, head, nxt, prv, cellof, max_count
-
-
-@njit(cache=True)
-def _local_candidates(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch):
-    """Particles j != i with |X_j - x| < cut_ij, written to scratch; returns their count (may exceed scratch)."""
-    half = 0.5 * box
-    c = _cell_of(x, y, z, box, m)
-    cz = c // (m * m)
-    cy = (c // m) % m
-    cx = c % m
-    count = 0
-    ndz = 3 if m >= 3 else 1
-    cap = scratch.shape[0]
-    for oz in range(ndz):
-        for oy in range(ndz):
-            for ox in range(ndz):
-                if m >= 3:
-                    cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
-                else:
-                    cc = 0
-                j = head[cc]
-                while j >= 0:
-                    if j != i:
-                        dx = fold(refs[j, 0] - x, box, half)
-                        dy = fold(refs[j, 1] - y, box, half)
-                        dz = fold(refs[j, 2] - z, box, half)
-                        cut = rho_list * 0.5 * (st[i, 7] + st[j, 7]) + skin
-                        if dx * dx + dy * dy + dz * dz < cut * cut:
-                            if count < cap:
-                                scratch[count] = j
-                            count += 1
-                    j = nxt[j]
-    return count
+    return refs, nnb, head, nxt, prv, cellof, max_count
 
 
 @njit(cache=True, inline="always")
@@ -325,11 +351,11 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
     x = _wrap(st[i, 0], box)
     y = _wrap(st[i, 1], box)
     z = _wrap(st[i, 2], box)
-    count = _local_candidates(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch)
-    if count > cap or count > scratch.shape[0]:
+    count = _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch, 0)
+    if count > cap or count > scratch.shape[1]:
         return False
     for k in range(count):
-        if nnb[scratch[k]] >= cap:  # conservative: i may already be listed there
+        if nnb[scratch[0, k]] >= cap:  # conservative: i may already be listed there
             return False
     # drop i from its old neighbours' lists
     for k in range(nnb[i]):
@@ -357,7 +383,7 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
         head[c_new] = i
         cellof[i] = c_new
     for k in range(count):
-        j = scratch[k]
+        j = scratch[0, k]
         nbr[i, k] = j
         nbr[j, nnb[j]] = i
         nnb[j] += 1
@@ -368,10 +394,13 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 # --- event prediction ---------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
              update_heap):
-    """Schedule particle i's next event at time t (its own current event is released first)."""
+    """Schedule particle i's next event at time t (its own current event is released first).
+
+    Inlined into its callers: a call would pass some 100 words of array descriptors per prediction.
+    """
     n = st.shape[0]
     half = 0.5 * box
     # release: a partner that expected to collide with i falls back to a re-prediction at the same time
@@ -393,6 +422,8 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
     best_type = SKIN
     best_j = -1
     for kk in range(nnb[i]):
+        _prefetch_row(st, nbr[i, kk])
+    for kk in range(nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
             continue
@@ -407,11 +438,11 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
         s2 = sig * sig
         b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
         a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
-        if b >= 0.0 and a >= 0.0:  # receding in the frame of the growing surfaces
-            continue
-        # for a >= 0 and b < 0 the root is >= c / (-2 b): skip the sqrt and division when it cannot win
+        # skip pairs receding in the frame of the growing surfaces (b >= 0, a >= 0) and, for a >= 0 and b < 0,
+        # pairs whose root (>= c / (-2 b)) cannot win; non-short-circuit & and | leave one well-predicted branch
         c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
-        if a >= 0.0 and c > 0.0 and c > -2.0 * b * (min(best, ev_time[j]) - t):
+        lim = min(best, ev_time[j]) - t
+        if (a >= 0.0) & ((b >= 0.0) | ((c > 0.0) & (c > -2.0 * b * lim))):
             continue
         tau = collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma)
         if tau < _INF:
@@ -483,6 +514,8 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
         elif kind == COLLISION:
             t = te
             j = ev_partner[i]
+            for kk in range(nnb[j]):  # j's neighbours load while i's prediction runs
+                _prefetch_row(st, nbr[j, kk])
             _sync(st, i, t)
             _sync(st, j, t)
             rx = fold(st[j, 0] - st[i, 0], box, half)
@@ -519,6 +552,7 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, box, rho0, gamma, skin, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
+        _prefetch_row(nbr, heap[0])  # the next event's neighbour list
         done = counters[C_COLLISIONS] if count_collisions else counters[C_EVENTS]
         if done >= target:
             sync_all(st, t)

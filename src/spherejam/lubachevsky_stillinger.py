@@ -64,6 +64,27 @@ class WindowStats:
     reached_target: bool
 
 
+def _aligned_zeros(shape, dtype=np.float64) -> np.ndarray:
+    """Zeroed C-contiguous array starting on a 64-byte boundary (NumPy only guarantees 16 bytes): a row of ``st``
+    (8 doubles) or 16 neighbour indices then fill exactly one cache line instead of straddling two."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape)) * dtype.itemsize
+    buf = np.zeros(nbytes + 64, dtype=np.uint8)
+    off = -buf.ctypes.data % 64
+    return buf[off:off + nbytes].view(dtype).reshape(shape)
+
+
+def _aligned_copy(a: np.ndarray) -> np.ndarray:
+    out = _aligned_zeros(a.shape, a.dtype)
+    out[...] = a
+    return out
+
+
+def _round_cap(cap: float) -> int:
+    """Neighbour-list capacity rounded up to whole cache lines of int32 (16 per line)."""
+    return -(-int(cap) // 16) * 16
+
+
 class LSEngine:
     """Event-driven MD state of N growing hard spheres in a periodic cube (d = 3).
 
@@ -95,7 +116,7 @@ class LSEngine:
         n = positions.shape[0]
         self.n = n
         self.box = float(box)
-        self.st = np.zeros((n, 8))
+        self.st = _aligned_zeros((n, 8))
         self.st[:, 0:3] = positions
         self.st[:, 3:6] = velocities
         self.st[:, 7] = nominal
@@ -150,14 +171,15 @@ class LSEngine:
         self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]
         while True:
-            refs, nbr, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(self.st, box, rho_list, skin, m, cap)
+            nbr = _aligned_zeros((n, cap), np.int32)
+            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(self.st, box, rho_list, skin, m, nbr)
             if max_count + 4 <= cap:
                 break
-            cap = int(1.5 * max_count) + 16
+            cap = _round_cap(1.5 * max_count + 16)
         self.refs, self.nbr, self.nnb = refs, nbr, nnb
         self.head, self.nxt, self.prv, self.cellof = head, nxt, prv, cellof
         self.m, self.rho_list, self.skin = m, rho_list, skin
-        self.scratch = np.zeros(max(cap, 64), dtype=np.int32)
+        self.scratch = np.zeros((1, max(cap, 64)), dtype=np.int32)
         self.list_rebuilds += 1
 
     def _sort_by_cell(self, m: int) -> None:
@@ -166,16 +188,16 @@ class LSEngine:
         key = (cell[:, 2] * m + cell[:, 1]) * m + cell[:, 0]
         order = np.argsort(key, kind="stable")
         if np.any(order != np.arange(self.n)):
-            self.st = np.ascontiguousarray(self.st[order])
+            self.st = _aligned_copy(self.st[order])
             self.perm = self.perm[order]
 
     def _enlarge_lists(self) -> None:
         cap = self.nbr.shape[1]
-        new_cap = int(1.5 * cap) + 8
-        nbr = np.zeros((self.n, new_cap), dtype=np.int32)
+        new_cap = _round_cap(1.5 * cap + 8)
+        nbr = _aligned_zeros((self.n, new_cap), np.int32)
         nbr[:, :cap] = self.nbr
         self.nbr = nbr
-        self.scratch = np.zeros(new_cap, dtype=np.int32)
+        self.scratch = np.zeros((1, new_cap), dtype=np.int32)
 
     # --- windows --------------------------------------------------------------------------------------------
     def _original_order(self, columns: slice) -> np.ndarray:
@@ -276,11 +298,11 @@ class LSEngine:
 
     def load_state(self, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> None:
         for k in self._ARRAYS:
-            setattr(self, k, np.ascontiguousarray(arrays[f"engine_{k}"]))
+            setattr(self, k, _aligned_copy(arrays[f"engine_{k}"]))
         self.rho0, self.gamma = float(attrs["rho0"]), float(attrs["gamma"])
         self.rho_list, self.skin = float(attrs["rho_list"]), float(attrs["skin"])
         self.m, self.list_rebuilds = int(attrs["m"]), int(attrs["list_rebuilds"])
-        self.scratch = np.zeros(max(self.nbr.shape[1], 64), dtype=np.int32)
+        self.scratch = np.zeros((1, max(self.nbr.shape[1], 64)), dtype=np.int32)
 
 
 # --- shared driver of LS-type protocols (plain LS and MLS) -------------------------------------------------------
