@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import time
 
 import numpy as np
@@ -31,8 +32,10 @@ def one(n: int, sigma: float, seed: int, rate: float) -> dict:
     t0 = time.perf_counter()
     ls = run_ls(start, rate, seed=seed, progress_interval=1e9)
     t1 = time.perf_counter()
-    mls = find_closest_jamming(ls.packing, seed=seed, progress_interval=60.0)
+    cpu1 = time.process_time()
+    mls = find_closest_jamming(ls.packing, seed=seed, progress_interval=120.0)
     t2 = time.perf_counter()
+    mls_cpu = time.process_time() - cpu1
     auto = analyze_contacts(mls.packing).coordination
     fixed = analyze_contacts(mls.packing, contact_tolerance=1e-7).coordination
     c = mls.counters
@@ -40,7 +43,7 @@ def one(n: int, sigma: float, seed: int, rate: float) -> dict:
         "n": n, "sigma": sigma, "seed": seed, "ls_rate": rate, "phi_ls": ls.packing.phi,
         "ls_collisions": ls.counters["collisions"], "ls_wall": t1 - t0,
         "phi_J": c["phi_J"], "stages": c["stages"], "stop": c["stop_reason"], "mls_collisions": c["collisions"],
-        "mls_wall": t2 - t1, "pressure": mls.packing.metadata["reduced_pressure"],
+        "mls_wall": t2 - t1, "mls_cpu": mls_cpu, "pressure": mls.packing.metadata["reduced_pressure"],
         "z_auto": auto.z_nonrattler, "tol_auto": auto.contact_tolerance, "rattlers_auto": auto.rattler_fraction,
         "excess_auto": auto.isostatic_excess, "z_1e-7": fixed.z_nonrattler, "rattlers_1e-7": fixed.rattler_fraction,
     }
@@ -56,6 +59,7 @@ def main() -> None:
     ap.add_argument("--slow-rate", type=float, default=0.01, help="LS rate of the slow packings (1/gamma = 100)")
     ap.add_argument("--json", help="append one JSON line per packing to this file")
     args = ap.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     rows = []
     for label, rate, seeds in (("fast", args.fast_rate, args.seeds), ("slow", args.slow_rate, args.slow_seeds)):
@@ -65,7 +69,7 @@ def main() -> None:
             print(f"{label} N={row['n']} sigma={row['sigma']} seed={seed} 1/gamma={1 / rate:g}: "
                   f"phi_LS={row['phi_ls']:.5f} phi_J={row['phi_J']:.5f} (+{row['phi_J'] - row['phi_ls']:.5f}) "
                   f"stages={row['stages']} stop={row['stop']} MLS collisions={row['mls_collisions']:,} "
-                  f"wall={row['mls_wall']:.0f}s p={row['pressure']:.3g} Z={row['z_auto']:.3f} "
+                  f"wall={row['mls_wall']:.0f}s cpu={row['mls_cpu']:.0f}s p={row['pressure']:.3g} Z={row['z_auto']:.3f} "
                   f"(tol {row['tol_auto']:.1e}, rattlers {row['rattlers_auto']:.3f}, K'-K0={row['excess_auto']}) "
                   f"Z(1e-7)={row['z_1e-7']:.3f}", flush=True)
             if args.json:
