@@ -69,7 +69,8 @@ def main() -> None:
             print(f"{label} N={row['n']} sigma={row['sigma']} seed={seed} 1/gamma={1 / rate:g}: "
                   f"phi_LS={row['phi_ls']:.5f} phi_J={row['phi_J']:.5f} (+{row['phi_J'] - row['phi_ls']:.5f}) "
                   f"stages={row['stages']} stop={row['stop']} MLS collisions={row['mls_collisions']:,} "
-                  f"wall={row['mls_wall']:.0f}s cpu={row['mls_cpu']:.0f}s p={row['pressure']:.3g} Z={row['z_auto']:.3f} "
+                  f"wall={row['mls_wall']:.0f}s cpu={row['mls_cpu']:.0f}s p={row['pressure']:.3g} "
+                  f"Z={row['z_auto']:.3f} "
                   f"(tol {row['tol_auto']:.1e}, rattlers {row['rattlers_auto']:.3f}, K'-K0={row['excess_auto']}) "
                   f"Z(1e-7)={row['z_1e-7']:.3f}", flush=True)
             if args.json:
