@@ -240,3 +240,43 @@ def test_mls_output_is_certified():
     assert result.converged and result.isostatic
     assert abs(result.phi - mls.packing.phi) <= 1e-4
     assert result.force_balance_residual <= 1e-10
+
+
+def test_warm_started_lp_matches_cold_solve():
+    """Primal simplex from the previous LP's basis reaches the same optimum as interior point from scratch, also
+    when an active row of the previous LP is missing (the alien basis is repaired) and rows are new."""
+    rng = np.random.default_rng(7)
+    fcc = fcc_packing(3)
+    x = np.mod(fcc.positions + rng.uniform(-0.01, 0.01, fcc.positions.shape), fcc.box)
+    n, box = fcc.n, fcc.box
+    kw = dict(s_bound=0.05, pinned=0, gamma_bounds=(1.0, 1.2))
+
+    def rows(pos, drop=None):
+        i, j, _ = pairs_in_cutoff(pos, box, 1.35)
+        if drop is not None:
+            keep = (i * n + j) != drop
+            i, j = i[keep], j[keep]
+        return pair_vectors(pos, box, i, j), np.full(len(i), 0.97**2), i, j
+
+    first = solve_lp(*rows(x), n, **kw)
+    assert first.method == "ipm" and first.basis is not None
+    x2 = np.mod(x + 0.5 * first.s, box)
+    active = np.flatnonzero(first.duals > 0)
+    i, j = rows(x)[2:]
+    dropped = int(i[active[0]] * n + j[active[0]])
+    for drop in (None, dropped):
+        r2, s2, i2, j2 = rows(x2, drop)
+        cold = solve_lp(r2, s2, i2, j2, n, **kw)
+        warm = solve_lp(r2, s2, i2, j2, n, **kw, warm=first.basis)
+        assert cold.method == "ipm" and warm.method == "warm"
+        assert warm.gamma == pytest.approx(cold.gamma, abs=1e-12)
+        # KKT of the warm vertex (to the 1e-9 solver tolerance): sum lambda sigma^2 = 1, force balance where no s
+        # bound is active
+        assert np.sum(warm.duals * s2) == pytest.approx(1.0, abs=1e-8)
+        net = np.zeros((n, 3))
+        np.add.at(net, i2, warm.duals[:, None] * r2)
+        np.add.at(net, j2, -warm.duals[:, None] * r2)
+        free = np.all(np.abs(warm.s) < 0.05 * (1 - 1e-9), axis=1)
+        free[0] = False
+        mean_force = np.mean(warm.duals[warm.duals > 0] * np.linalg.norm(r2[warm.duals > 0], axis=1))
+        assert np.max(np.abs(net[free])) < 1e-6 * mean_force

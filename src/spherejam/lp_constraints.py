@@ -68,6 +68,23 @@ def constraint_rows(rij, sigma2, pi, pj, n):
 
 
 @njit(cache=True)
+def row_excess(rij, sigma2, pi, pj, s, gamma):
+    """Largest excess over its right-hand side of a linearised row at (s, Gamma): <= 0 when all rows hold."""
+    m, dim = rij.shape
+    worst = -np.inf
+    for k in range(m):
+        i = pi[k]
+        j = pj[k]
+        lhs = gamma * sigma2[k]
+        for a in range(dim):
+            c = rij[k, a]
+            lhs += 2.0 * c * (s[j, a] - s[i, a]) - c * c
+        if lhs > worst:
+            worst = lhs
+    return worst
+
+
+@njit(cache=True)
 def particle_force_sums(rij, weight, pi, pj, n):
     """Per-particle sums of weight_k * r_ij over the pairs (i gets +, j gets -), shape (n, d)."""
     m, dim = rij.shape
