@@ -241,6 +241,9 @@ def _highs_options(tolerance: float, extra: dict[str, Any] | None) -> dict[str, 
     return opts
 
 
+_BASIC = 1  # HighsBasisStatus.kBasic
+
+
 def _warm_basis(warm: LPBasis, keys: np.ndarray, highspy):
     """The previous LP's basis carried over to the rows ``keys``: rows new to the LP start basic (slack).
 
@@ -257,9 +260,6 @@ def _warm_basis(warm: LPBasis, keys: np.ndarray, highspy):
     basis.valid = True
     basis.alien = True
     return basis
-
-
-_BASIC = 1  # HighsBasisStatus.kBasic
 
 
 def _status_members(highspy):

@@ -144,15 +144,13 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     """
     validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
                     max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
-                    progress_interval=progress_interval)
+                    progress_interval=progress_interval, max_collisions=max_collisions)
     require(_finite(initial_rate) and initial_rate > 0, "initial_rate", initial_rate, "must be a finite number > 0")
     require(_finite(decrease_factor) and decrease_factor > 1, "decrease_factor", decrease_factor,
             "must be a finite number > 1")
     require(_finite(final_rate) and final_rate > 0, "final_rate", final_rate, "must be a finite number > 0")
     require(isinstance(max_equilibration_windows, (int, np.integer)) and max_equilibration_windows >= 1,
             "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
-    require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
-            "max_collisions", max_collisions, "must be None or an integer >= 1")
     parameters = {
         "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),
         "final_rate": float(final_rate), "p_max": float(p_max),

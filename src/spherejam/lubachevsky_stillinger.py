@@ -317,7 +317,7 @@ def maxwell_velocities(n: int, temperature: float, rng: np.random.Generator) -> 
 
 
 def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time, temperature, checkpoint_interval,
-                    progress_interval) -> None:
+                    progress_interval, max_collisions=None) -> None:
     require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a spherejam Packing")
     require(packing.n >= 2, "N", packing.n, "must be >= 2")
     require(packing.dim == 3, "dim", packing.dim, "the LS engine supports d = 3 only")
@@ -327,6 +327,8 @@ def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time,
             "events_per_particle", events_per_particle, "must be an integer >= 1")
     require(max_wall_time is None or (_finite(max_wall_time) and max_wall_time > 0), "max_wall_time",
             max_wall_time, "must be None or a number > 0 (seconds)")
+    require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
+            "max_collisions", max_collisions, "must be None or an integer >= 1")
     require(_finite(temperature) and temperature > 0, "temperature", temperature, "must be a finite number > 0")
     require(_finite(checkpoint_interval) and checkpoint_interval >= 0, "checkpoint_interval", checkpoint_interval,
             "must be a number >= 0 (seconds)")
@@ -553,12 +555,10 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
     """
     validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
                     max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
-                    progress_interval=progress_interval)
+                    progress_interval=progress_interval, max_collisions=max_collisions)
     require(_finite(rate) and rate >= 0, "rate", rate, "must be a finite number >= 0")
     require(target_phi is None or (_finite(target_phi) and 0 < target_phi < 1), "target_phi", target_phi,
             "must be None or in (0, 1)")
-    require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
-            "max_collisions", max_collisions, "must be None or an integer >= 1")
     if rate == 0 and target_phi is not None:
         raise InputError(f"target_phi={target_phi!r}: cannot be reached at rate=0")
     if rate == 0 and max_collisions is None and max_wall_time is None:
