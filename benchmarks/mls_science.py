@@ -7,7 +7,10 @@ wall time and the coordination number Z of the non-rattlers (contacts: gap toler
 band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N = 1e4.
 
     python benchmarks/mls_science.py --n 1000 --seeds 1 2 3 4 5 --slow-seeds 1
-    python benchmarks/mls_science.py --n 10000 --seeds 1          # ~0.5-1 h per packing on one core
+    python benchmarks/mls_science.py --n 10000 --seeds 1 --checkpoint-dir runs/   # ~1.5 h per packing, one core
+
+With ``--checkpoint-dir`` each MLS search checkpoints there every 2 minutes and a rerun of the same command resumes
+it (the wall time is summed over the runs); seeds already in the ``--json`` file are skipped.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import argparse
 import json
 import logging
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -27,13 +31,17 @@ from spherejam.seeding import poisson_packing
 PAPER_BAND_SIGMA0 = (0.6356, 0.6406)
 
 
-def one(n: int, sigma: float, seed: int, rate: float) -> dict:
+def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | None = None) -> dict:
     start = poisson_packing(n, sigma, seed=seed)
     t0 = time.perf_counter()
     ls = run_ls(start, rate, seed=seed, progress_interval=1e9)
     t1 = time.perf_counter()
     cpu1 = time.process_time()
-    mls = find_closest_jamming(ls.packing, seed=seed, progress_interval=120.0)
+    checkpoint = None
+    if checkpoint_dir is not None:
+        checkpoint = checkpoint_dir / f"mls_n{n}_sigma{sigma:g}_seed{seed}_rate{rate:g}.h5"
+    mls = find_closest_jamming(ls.packing, seed=seed, progress_interval=120.0, checkpoint=checkpoint,
+                               checkpoint_interval=120.0)
     t2 = time.perf_counter()
     mls_cpu = time.process_time() - cpu1
     auto = analyze_contacts(mls.packing).coordination
@@ -43,7 +51,8 @@ def one(n: int, sigma: float, seed: int, rate: float) -> dict:
         "n": n, "sigma": sigma, "seed": seed, "ls_rate": rate, "phi_ls": ls.packing.phi,
         "ls_collisions": ls.counters["collisions"], "ls_wall": t1 - t0,
         "phi_J": c["phi_J"], "stages": c["stages"], "stop": c["stop_reason"], "mls_collisions": c["collisions"],
-        "mls_wall": t2 - t1, "mls_cpu": mls_cpu, "pressure": mls.packing.metadata["reduced_pressure"],
+        "mls_wall": c["wall_time"], "mls_wall_this_run": t2 - t1, "mls_cpu_this_run": mls_cpu,
+        "resumed": c["resumed"], "pressure": mls.packing.metadata["reduced_pressure"],
         "z_auto": auto.z_nonrattler, "tol_auto": auto.contact_tolerance, "rattlers_auto": auto.rattler_fraction,
         "excess_auto": auto.isostatic_excess, "z_1e-7": fixed.z_nonrattler, "rattlers_1e-7": fixed.rattler_fraction,
     }
@@ -57,19 +66,32 @@ def main() -> None:
     ap.add_argument("--fast-rate", type=float, default=0.5, help="LS rate of the fast packings (1/gamma = 2)")
     ap.add_argument("--slow-seeds", type=int, nargs="*", default=[])
     ap.add_argument("--slow-rate", type=float, default=0.01, help="LS rate of the slow packings (1/gamma = 100)")
-    ap.add_argument("--json", help="append one JSON line per packing to this file")
+    ap.add_argument("--json", help="append one JSON line per packing to this file (seeds in it are skipped)")
+    ap.add_argument("--checkpoint-dir", type=Path, help="checkpoint (and resume) the MLS searches here")
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
+    done = []
+    if args.json and Path(args.json).exists():
+        done = [json.loads(line) for line in Path(args.json).read_text().splitlines() if line.strip()]
+    if args.checkpoint_dir is not None:
+        args.checkpoint_dir.mkdir(parents=True, exist_ok=True)
     rows = []
     for label, rate, seeds in (("fast", args.fast_rate, args.seeds), ("slow", args.slow_rate, args.slow_seeds)):
         for seed in seeds:
-            row = dict(one(args.n, args.sigma, seed, rate), kind=label)
+            old = [r for r in done if (r["n"], r["sigma"], r["seed"], r["ls_rate"]) == (args.n, args.sigma, seed, rate)]
+            if old:
+                rows.append(old[-1])
+                print(f"{label} seed {seed}: already in {args.json}, phi_J={old[-1]['phi_J']:.5f}", flush=True)
+                continue
+            row = dict(one(args.n, args.sigma, seed, rate, args.checkpoint_dir), kind=label)
             rows.append(row)
             print(f"{label} N={row['n']} sigma={row['sigma']} seed={seed} 1/gamma={1 / rate:g}: "
                   f"phi_LS={row['phi_ls']:.5f} phi_J={row['phi_J']:.5f} (+{row['phi_J'] - row['phi_ls']:.5f}) "
                   f"stages={row['stages']} stop={row['stop']} MLS collisions={row['mls_collisions']:,} "
-                  f"wall={row['mls_wall']:.0f}s cpu={row['mls_cpu']:.0f}s p={row['pressure']:.3g} "
+                  f"wall={row['mls_wall']:.0f}s (this run {row['mls_wall_this_run']:.0f}s, "
+                  f"cpu {row['mls_cpu_this_run']:.0f}s) "
+                  f"p={row['pressure']:.3g} "
                   f"Z={row['z_auto']:.3f} "
                   f"(tol {row['tol_auto']:.1e}, rattlers {row['rattlers_auto']:.3f}, K'-K0={row['excess_auto']}) "
                   f"Z(1e-7)={row['z_1e-7']:.3f}", flush=True)
