@@ -280,3 +280,22 @@ def test_warm_started_lp_matches_cold_solve():
         free[0] = False
         mean_force = np.mean(warm.duals[warm.duals > 0] * np.linalg.norm(r2[warm.duals > 0], axis=1))
         assert np.max(np.abs(net[free])) < 1e-6 * mean_force
+
+
+def test_failed_warm_starts_back_off_and_fall_back_to_interior_point():
+    """A warm start that runs out of pivots falls back to interior point (same optimum); after k failures in a
+    row the next 2^k - 1 LPs skip it, so an LP that never warm-starts well costs O(log) wasted attempts."""
+    from spherejam.lubachevsky_stillinger import run_ls
+    from spherejam.seeding import poisson_packing
+
+    start = run_ls(poisson_packing(128, 0.0, 3), 1e-2, p_max=1e5, seed=3, progress_interval=1e9).packing
+    normal = run_calippso(start)
+    starved = run_calippso(start, solver_options={"simplex_iteration_limit": 1})
+    for result in (normal, starved):
+        assert result.converged and result.isostatic
+        assert result.force_balance_residual <= 1e-10
+    later = starved.iterations - 1  # LPs after the first, all in regime 2-3 from this start
+    assert np.all(starved.history["regime"][1:] > 1)
+    assert 1 <= starved.counters["warm_attempts"] <= 1 + math.log2(later)
+    assert normal.counters["warm_attempts"] >= normal.iterations // 2
+    assert abs(starved.phi - normal.phi) < 1e-6

@@ -46,7 +46,11 @@ final positions without moving anything (spec §2.3), so no bound carries force;
 + crossover from scratch. From regime 2 on, consecutive LPs share almost all rows and most of the active set, so
 primal simplex (unscaled) starts from the previous LP's basis (rows matched by pair, new rows basic): tens to a
 few hundred pivots instead of a full interior-point solve, 3-10 times faster at N = 1024 (``warm_start=False``
-turns it off). Beyond max(1000, N/2) pivots it gives up for interior point. HiGHS uses one thread. Both give an
+turns it off). Beyond :func:`warm_pivot_limit` pivots (~1000 at N = 1024, falling as 1/N to 200: a pivot costs
+~3 ms at N = 1024 but ~50 ms at N = 4096, where one interior-point solve costs ~50 s) it gives up for interior
+point, and after k failed warm starts in a row the next 2^k - 1 LPs skip it (at N = 4096 the warm starts needed
+1600-2000+ pivots, more than an interior-point solve costs; a deterministic back-off, so runs stay reproducible).
+HiGHS uses one thread. Both give an
 optimal vertex within the same tolerances; where the optimum is degenerate they may pick different vertices, so
 trajectories can differ (the jammed state from the reference's LS input does not). Every solution HiGHS calls
 optimal is checked here too (rows, bounds, force balance): simplex was seen to return "optimal" with a row
@@ -298,6 +302,15 @@ def _vertex_problem(rij, sigma2, pi, pj, s, gamma, duals, lower, upper, toleranc
     return None
 
 
+def warm_pivot_limit(n: int) -> int:
+    """Primal simplex pivots allowed to a warm start before interior point takes over (N particles).
+
+    Break-even with one interior-point + crossover solve, measured (one core): ~600-800 pivots at N = 1024
+    (3 ms each vs 1.7 s) and at N = 4096 (50-65 ms each vs 45-60 s); beyond that the cap only bounds the loss.
+    """
+    return max(200, min(1000, 1_000_000 // max(int(n), 1)))
+
+
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
@@ -345,9 +358,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
         # primal simplex: the carried-over vertex is nearly primal feasible (the rows barely moved)
         # no scaling: the rows are O(1) already, and scaling made warm solves 3-5 times longer (measured). Beyond
-        # ~N/2 pivots (~1000 at N = 1024) interior point is cheaper: give up and fall back to it
+        # warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
+        limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
         warm_opts = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0,
-                     "simplex_iteration_limit": min(max(1000, n // 2), opts.get("simplex_iteration_limit", 2**31 - 1))}
+                     "simplex_iteration_limit": limit}
         attempts.insert(0, ("warm", {**opts, **warm_opts, **{k: v for k, v in (options or {}).items()
                                                              if k in ("simplex_strategy", "simplex_scale_strategy")}}))
     failures = []
@@ -722,6 +736,9 @@ def run_calippso(
     methods: dict[str, int] = {}
     predicted = None  # (contact keys, rattler mask) of the last LP, when isostatic
     basis = None  # HiGHS basis of the last HiGHS-solved LP, the next one's warm start (regimes 2-3)
+    warm_failures = 0  # failed warm starts in a row
+    warm_skip = 0  # LPs left to solve without a warm start (back-off after failures)
+    warm_attempts = 0
     bound_hit, prev_sb = False, 0.0
     ckpt = Path(checkpoint) if checkpoint is not None else None
     fingerprint = _fingerprint(packing, {k: v for k, v in parameters.items() if k != "max_iterations"})
@@ -759,10 +776,15 @@ def run_calippso(
             if sol is None:
                 lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
         if sol is None:
+            warm = basis if regime > 1 and warm_skip == 0 else None
+            warm_skip = max(warm_skip - 1, 0)
             sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
-                           tolerance=solver_tolerance, options=solver_options, iteration=iteration,
-                           warm=basis if regime > 1 else None)
+                           tolerance=solver_tolerance, options=solver_options, iteration=iteration, warm=warm)
             basis = sol.basis if warm_start else None
+            if warm is not None:
+                warm_attempts += 1
+                warm_failures = 0 if sol.method == "warm" else warm_failures + 1
+                warm_skip = 2**warm_failures - 1
         iteration += 1
         lp_time += sol.solve_time
         methods[sol.method.split("+")[0]] = methods.get(sol.method.split("+")[0], 0) + 1
@@ -874,7 +896,7 @@ def run_calippso(
     wall = time.perf_counter() - wall0
     counters = {
         "iterations": iteration, "converged": converged, "lp_time": lp_time, "wall_time": wall,
-        "lp_methods": methods, "fine_tuned": fine_tuned,
+        "lp_methods": methods, "warm_attempts": warm_attempts, "fine_tuned": fine_tuned,
         "fine_tune_sqrt_gamma_minus_1": math.sqrt(fine_gamma) - 1.0 if fine_gamma > 0 else math.nan,
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
