@@ -50,11 +50,10 @@ turns it off). Beyond :func:`warm_pivot_limit` pivots (~1000 at N = 1024, fallin
 ~3 ms at N = 1024 but ~50 ms at N = 4096, where one interior-point solve costs ~50 s) it gives up for interior
 point, and after k failed warm starts in a row the next 2^k - 1 LPs skip it (at N = 4096 the warm starts needed
 1600-2000+ pivots, more than an interior-point solve costs; a deterministic back-off, so runs stay reproducible).
-HiGHS uses one thread. Both give an
-optimal vertex within the same tolerances; where the optimum is degenerate they may pick different vertices, so
-trajectories can differ (the jammed state from the reference's LS input does not). Every solution HiGHS calls
-optimal is checked here too (rows, bounds, force balance): simplex was seen to return "optimal" with a row
-violated by 3e-5, which would have become an overlap; such a solve counts as failed.
+HiGHS uses one thread. Both give an optimal vertex within the same tolerances; where the optimum is degenerate
+they may pick different vertices, so trajectories can differ (the jammed state from the reference's LS input
+does not). Every solution HiGHS calls optimal is checked here too (rows, bounds, force balance): simplex was seen
+to return "optimal" with a row violated by 3e-5, which would have become an overlap; such a solve counts as failed.
 
 **Active-set shortcut.** When the previous LP was isostatic, its contact network predicts the next optimal vertex;
 :func:`solve_active_set` solves that square system by sparse LU, pivots (primal simplex) while a dual is negative,
