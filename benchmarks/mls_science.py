@@ -10,7 +10,9 @@ band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N
     python benchmarks/mls_science.py --n 10000 --seeds 1 --checkpoint-dir runs/   # ~1.5 h per packing, one core
 
 With ``--checkpoint-dir`` each MLS search checkpoints there every 2 minutes and a rerun of the same command resumes
-it (the wall time is summed over the runs); seeds already in the ``--json`` file are skipped.
+it (the wall time is summed over the runs); seeds already in the ``--json`` file are skipped. With ``--save-dir``
+each jammed packing is written there (spherejam HDF5 with its per-window history), e.g. to certify it afterwards
+with ``spherejam calippso`` or ``benchmarks/bench_calippso.py --start``.
 """
 
 from __future__ import annotations
@@ -26,12 +28,14 @@ import numpy as np
 from spherejam.closest_jamming import find_closest_jamming
 from spherejam.contacts import analyze_contacts
 from spherejam.lubachevsky_stillinger import run_ls
+from spherejam.packing_io import write_packing
 from spherejam.seeding import poisson_packing
 
 PAPER_BAND_SIGMA0 = (0.6356, 0.6406)
 
 
-def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | None = None) -> dict:
+def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | None = None,
+        save_dir: Path | None = None) -> dict:
     start = poisson_packing(n, sigma, seed=seed)
     t0 = time.perf_counter()
     ls = run_ls(start, rate, seed=seed, progress_interval=1e9)
@@ -44,6 +48,8 @@ def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | Non
                                checkpoint_interval=120.0)
     t2 = time.perf_counter()
     mls_cpu = time.process_time() - cpu1
+    if save_dir is not None:
+        write_packing(save_dir / f"mls_n{n}_sigma{sigma:g}_seed{seed}_rate{rate:g}.h5", mls.packing, mls.history)
     auto = analyze_contacts(mls.packing).coordination
     fixed = analyze_contacts(mls.packing, contact_tolerance=1e-7).coordination
     c = mls.counters
@@ -68,14 +74,16 @@ def main() -> None:
     ap.add_argument("--slow-rate", type=float, default=0.01, help="LS rate of the slow packings (1/gamma = 100)")
     ap.add_argument("--json", help="append one JSON line per packing to this file (seeds in it are skipped)")
     ap.add_argument("--checkpoint-dir", type=Path, help="checkpoint (and resume) the MLS searches here")
+    ap.add_argument("--save-dir", type=Path, help="write each jammed packing here (HDF5, with its history)")
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
 
     done = []
     if args.json and Path(args.json).exists():
         done = [json.loads(line) for line in Path(args.json).read_text().splitlines() if line.strip()]
-    if args.checkpoint_dir is not None:
-        args.checkpoint_dir.mkdir(parents=True, exist_ok=True)
+    for folder in (args.checkpoint_dir, args.save_dir):
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
     rows = []
     for label, rate, seeds in (("fast", args.fast_rate, args.seeds), ("slow", args.slow_rate, args.slow_seeds)):
         for seed in seeds:
@@ -84,7 +92,7 @@ def main() -> None:
                 rows.append(old[-1])
                 print(f"{label} seed {seed}: already in {args.json}, phi_J={old[-1]['phi_J']:.5f}", flush=True)
                 continue
-            row = dict(one(args.n, args.sigma, seed, rate, args.checkpoint_dir), kind=label)
+            row = dict(one(args.n, args.sigma, seed, rate, args.checkpoint_dir, args.save_dir), kind=label)
             rows.append(row)
             print(f"{label} N={row['n']} sigma={row['sigma']} seed={seed} 1/gamma={1 / rate:g}: "
                   f"phi_LS={row['phi_ls']:.5f} phi_J={row['phi_J']:.5f} (+{row['phi_J'] - row['phi_ls']:.5f}) "
