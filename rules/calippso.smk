@@ -9,6 +9,9 @@ rule certify:
     output:
         packing=f"{PACKING}/calippso.h5",
         summary=f"{PACKING}/calippso.json",
+    params:
+        # at N = 1e4 one certification takes tens of minutes: a job cut at its time limit resumes from here
+        checkpoint=f"{R}/checkpoints/calippso/{RUN}.h5",
     log:
         f"{R}/logs/calippso/{RUN}.log",
     benchmark:
@@ -18,4 +21,5 @@ rule certify:
     group:
         "analysis"
     shell:
-        "spherejam calippso {input} -o {output.packing} --summary {output.summary} > {log} 2>&1"
+        "spherejam calippso {input} --checkpoint {params.checkpoint} -o {output.packing}"
+        " --summary {output.summary} > {log} 2>&1"
