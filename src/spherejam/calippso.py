@@ -63,6 +63,15 @@ warm start is available (regime 1, ``warm_start=False``): a warm-started HiGHS s
 the shortcut's failed attempts (an active-set change beyond a few pivots) cost more than its successes save.
 ``active_set=False`` turns it off (tests check both agree).
 
+**Which starts converge quickly** (measured, d = 3). Packings at their own high pressure: an MLS output at
+p = 1e12 takes 7 LPs at N = 2048 (phi moves by ~1e-9), and an LS + MLS packing at p = 1e5 takes 11 LPs at N = 1024.
+From p = 1e5 starts at N >= 2048 the loop creeps instead: each LP gains sqrt(Gamma) - 1 ~ 3e-7 and moves stable
+particles by ~3e-3 diameters although its vertex is isostatic with no bound active, while the contact network keeps
+changing and phi keeps rising (at N = 2048 by more than d phi / p after 36 LPs). That is the LP densifying the
+packing along nearly floppy paths, not a solver artefact: the reference's first large step, interior-point
+solutions without crossover and a shrinking trust region (halved after a step that did not contract) crept alike.
+Certify high-pressure packings; the workflow certifies MLS outputs at p = 1e12.
+
 **Failures.** Every LP status is checked. A non-optimal warm-started solve falls back to interior point; a
 non-optimal interior-point solve is retried once with dual simplex; a failure of that too raises
 :class:`SimulationError` (status, iteration, LP size). An infeasible LP cannot happen from an overlap-free start
