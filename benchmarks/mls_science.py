@@ -2,9 +2,10 @@
 
 For each seed: Poisson packing -> LS at a fast rate (1/gamma < 5) -> MLS with the paper's parameters; optionally
 also LS at a slow rate (1/gamma >= 100) -> MLS. Prints, per packing, phi after LS, phi_J, the MLS stages, collisions,
-wall time and the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
-:func:`spherejam.contacts.analyze_contacts`, and the reference code's fixed 1e-7), then a summary against the paper's
-band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N = 1e4.
+wall time, the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
+:func:`spherejam.contacts.analyze_contacts`, and the reference code's fixed 1e-7) and the crystalline fraction
+(:func:`spherejam.structure.crystalline_fraction`: monodisperse searches can nucleate crystals, paper §IV.A), then a
+summary against the paper's band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N = 1e4.
 
     python benchmarks/mls_science.py --n 1000 --seeds 1 2 3 4 5 --slow-seeds 1
     python benchmarks/mls_science.py --n 10000 --seeds 1 --checkpoint-dir runs/   # ~1.5 h per packing, one core
@@ -30,6 +31,7 @@ from spherejam.contacts import analyze_contacts
 from spherejam.lubachevsky_stillinger import run_ls
 from spherejam.packing_io import write_packing
 from spherejam.seeding import poisson_packing
+from spherejam.structure import crystalline_fraction
 
 PAPER_BAND_SIGMA0 = (0.6356, 0.6406)
 
@@ -52,6 +54,7 @@ def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | Non
         write_packing(save_dir / f"mls_n{n}_sigma{sigma:g}_seed{seed}_rate{rate:g}.h5", mls.packing, mls.history)
     auto = analyze_contacts(mls.packing).coordination
     fixed = analyze_contacts(mls.packing, contact_tolerance=1e-7).coordination
+    crystalline, largest = crystalline_fraction(mls.packing)
     c = mls.counters
     return {
         "n": n, "sigma": sigma, "seed": seed, "ls_rate": rate, "phi_ls": ls.packing.phi,
@@ -61,6 +64,7 @@ def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | Non
         "resumed": c["resumed"], "pressure": mls.packing.metadata["reduced_pressure"],
         "z_auto": auto.z_nonrattler, "tol_auto": auto.contact_tolerance, "rattlers_auto": auto.rattler_fraction,
         "excess_auto": auto.isostatic_excess, "z_1e-7": fixed.z_nonrattler, "rattlers_1e-7": fixed.rattler_fraction,
+        "crystalline": crystalline, "largest_crystal": largest,
     }
 
 
@@ -102,7 +106,8 @@ def main() -> None:
                   f"p={row['pressure']:.3g} "
                   f"Z={row['z_auto']:.3f} "
                   f"(tol {row['tol_auto']:.1e}, rattlers {row['rattlers_auto']:.3f}, K'-K0={row['excess_auto']}) "
-                  f"Z(1e-7)={row['z_1e-7']:.3f}", flush=True)
+                  f"Z(1e-7)={row['z_1e-7']:.3f} crystalline={row['crystalline']:.3f} "
+                  f"(largest crystal {row['largest_crystal']:.3f})", flush=True)
             if args.json:
                 with open(args.json, "a") as f:
                     f.write(json.dumps(row) + "\n")

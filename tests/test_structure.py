@@ -55,6 +55,26 @@ def test_random_q6_is_small_and_local_matches_freud():
     np.testing.assert_allclose(st.particle_order[ok], qi[ok], atol=2e-5)  # freud works in float32
 
 
+def test_crystalline_fraction_of_crystals_glasses_and_mixtures():
+    assert structure.crystalline_fraction(fcc(3)) == (1.0, 1.0)
+    assert structure.crystalline_fraction(dense_random(3000, 1)) == (0.0, 0.0)
+    p = fcc(6)  # 864 particles in a box of side 6
+    rng = np.random.default_rng(0)
+    melted = p.positions.copy()
+    top = melted[:, 2] > 3.1  # 5/12 of the particles: replace them by random points
+    melted[top] = rng.random((top.sum(), 3)) * [6, 6, 2.9] + [0, 0, 3.1]
+    frac, largest = structure.crystalline_fraction(Packing(melted, p.diameters, p.box))
+    assert frac == largest and 0.5 < frac < 0.65  # the 7/12 left, give or take the interface
+    slabs = p.positions.copy()
+    z = slabs[:, 2]
+    shaken = ((z > 1.6) & (z < 3.1)) | (z > 4.6)  # two crystalline slabs of 1/3 each, separated by shaken ones
+    slabs[shaken] += rng.normal(0, 0.3, (shaken.sum(), 3))
+    frac, largest = structure.crystalline_fraction(Packing(slabs, p.diameters, p.box))
+    assert 0.6 < frac < 0.72 and 0.3 < largest < 0.37
+    with pytest.raises(InputError, match="solid_bonds"):
+        structure.crystalline_fraction(p, solid_bonds=0)
+
+
 def brute_power_volumes(p: Packing) -> np.ndarray:
     """Each power cell by half-space intersection with all 27 periodic images (O(N^2), double precision)."""
     from scipy.spatial import ConvexHull, HalfspaceIntersection
@@ -179,11 +199,13 @@ def test_analyze_returns_every_variable():
     out = structure.analyze(p, pore_samples=10_000)
     assert list(out) == list(structure.VARIABLES)
     assert out["z_nonrattler"] == 12.0 and out["q6_local"] == pytest.approx(Q6_FCC)
+    assert out["crystalline_fraction"] == 1.0
     assert all(isinstance(v, float) for v in out.values())
     assert all(len(v) == 2 and v[1] == "1" for v in structure.VARIABLES.values())
     q = poisson_packing(200, 0.1, 1, dim=4)
     out4 = structure.analyze(q, pore_samples=10_000)
     assert math.isnan(out4["q6_global"]) and math.isnan(out4["voronoi_entropy"])
+    assert math.isnan(out4["crystalline_fraction"])
     assert math.isfinite(out4["pore_size_entropy"])
     with pytest.raises(InputError, match="d=4"):
         structure.voronoi_volumes(q)
