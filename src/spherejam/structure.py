@@ -87,17 +87,18 @@ def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
     return i, j, d
 
 
-def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF):  # noqa: E741 (degree l)
+def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF, bonds=None):  # noqa: E741 (degree l)
     """Steinhardt bond-orientational order of degree ``l`` (even), d = 3 (spec §6.4).
 
     Returns ``(q_global, q_local, q_per_particle, n_neighbours)``: q_global from <Y_lm> over all bonds; q(i) from
     the bonds of i (NaN for particles without neighbours); q_local = mean of q(i) over particles with neighbours.
+    ``bonds``: the output of :func:`bond_network` for this ``cutoff``, if already computed.
     """
     from scipy.special import sph_harm_y
 
     _require_3d(packing, "Steinhardt order")
     require(int(l) == l and l >= 2 and l % 2 == 0, "l", l, "must be an even integer >= 2")
-    i, j, d = bond_network(packing, cutoff)
+    i, j, d = bond_network(packing, cutoff) if bonds is None else bonds
     n = packing.n
     nb = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
     if len(i) == 0:
@@ -130,13 +131,13 @@ SOLID_BONDS = 7
 
 
 def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRESHOLD, solid_bonds: int = SOLID_BONDS,
-                         cutoff: float = Q6_CUTOFF) -> tuple[float, float]:
+                         cutoff: float = Q6_CUTOFF, bonds=None) -> tuple[float, float]:
     """Fraction of crystalline (solid-like) particles, and the largest crystalline cluster as a fraction of N.
 
     Bonds are those of :func:`bond_network` (r_ij <= ``cutoff`` * D_ij); the bond-orientational test is freud's
     ``order.SolidLiquid`` (l = 6, normalised q6m). A perfect FCC or HCP crystal gives (1, 1); jammed amorphous
     packings give a few per cent of scattered particles. Monodisperse MLS and slow LS runs can nucleate crystals
-    (paper §IV.A), which this measure flags.
+    (paper §IV.A), which this measure flags. ``bonds`` as in :func:`steinhardt`.
     """
     import freud
 
@@ -144,7 +145,7 @@ def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRES
     require(math.isfinite(q_threshold) and -1 <= q_threshold <= 1, "q_threshold", q_threshold, "must lie in [-1, 1]")
     require(int(solid_bonds) == solid_bonds and solid_bonds >= 1, "solid_bonds", solid_bonds,
             "must be an integer >= 1")
-    i, j, d = bond_network(packing, cutoff)
+    i, j, d = bond_network(packing, cutoff) if bonds is None else bonds
     if len(i) == 0:
         return 0.0, 0.0
     query, point, vec = np.r_[i, j], np.r_[j, i], np.r_[d, -d]
@@ -498,8 +499,9 @@ def analyze(
     t1 = time.perf_counter()
     clock["contacts"] = t1 - t0
     if packing.dim == 3:
-        q_global, q_local, _, _ = steinhardt(packing, 6)
-        crystalline, _ = crystalline_fraction(packing)
+        bonds = bond_network(packing)
+        q_global, q_local, _, _ = steinhardt(packing, 6, bonds=bonds)
+        crystalline, _ = crystalline_fraction(packing, bonds=bonds)
         t2 = time.perf_counter()
         clock["q6"] = t2 - t1
         result.update(voronoi_statistics(voronoi_volumes(packing), packing.diameters))
