@@ -41,9 +41,10 @@ def run_seed(purpose):
 
 
 def mls_limits():
-    """The MLS cut-off flags of the config (empty when the search is uncut, as in the paper)."""
+    """The MLS cut-off and stall-rule flags of the config."""
     mls = config["mls"]
-    flags = []
+    stall = mls.get("stall_windows", 1000)
+    flags = ["--no-stall-rule" if stall is None else f"--stall-windows {stall}"]
     if mls.get("max_collisions_per_particle") is not None:
         flags.append(f"--max-collisions-per-particle {mls['max_collisions_per_particle']}")
     if mls.get("max_wall_time") is not None:

@@ -8,9 +8,9 @@ fewer stages (final rate 1e-2, factor 4) on small N to stay fast. The science ch
 import numpy as np
 import pytest
 
-from spherejam.closest_jamming import find_closest_jamming
+from spherejam.closest_jamming import MLSController, find_closest_jamming
 from spherejam.errors import InputError
-from spherejam.lubachevsky_stillinger import run_ls
+from spherejam.lubachevsky_stillinger import WindowStats, run_ls
 from spherejam.seeding import poisson_packing
 
 QUICK = {"final_rate": 1e-2, "decrease_factor": 4.0, "progress_interval": 1e9}
@@ -50,6 +50,7 @@ def _check_state_machine(result, initial_rate, factor, final_rate, p_max=1e12, m
                 assert not last and rate[w + 1] == 0 and stage[w + 1] == stage[w]
     c = result.counters
     assert p[-1] >= p_max
+    assert c["stalled_stages"] == 0  # small N: the double-precision floor is far above p_max
     assert c["stages"] == stage[-1] + 1
     assert c["rate_decreases"] == k
     assert c["collisions"] == h["collisions"].sum()
@@ -163,6 +164,8 @@ def test_deterministic():
         ({"seed": -3}, "seed"),
         ({"max_wall_time": -1.0}, "max_wall_time"),
         ({"max_collisions": 0}, "max_collisions"),
+        ({"stall_windows": 0}, "stall_windows"),
+        ({"stall_windows": 2.5}, "stall_windows"),
     ],
 )
 def test_bad_parameters_are_rejected(kwargs, field):
@@ -198,3 +201,84 @@ def test_cli_mls(tmp_path):
     assert main(["mls", str(src), "-o", str(out), "--max-collisions-per-particle", "-1"]) == 2
     assert main(argv + ["--max-collisions-per-particle", "10"]) == 0
     assert read_packing(out).metadata["counters"]["stop_reason"] == "max_collisions"
+
+
+def _window(p: float) -> WindowStats:
+    return WindowStats(duration=1e-12, pressure=p, temperature=0.2, collisions=1, events=1, skin_events=0, moves=0,
+                       null_collisions=0, list_rebuilds=0, reached_target=False)
+
+
+def _feed(controller, pressures):
+    """Windows with these pressures; the stop reason and the (rate, stage) after each window."""
+    trace = []
+    for p in pressures:
+        reason = controller.after_window(_window(p))
+        trace.append((controller.rate, controller.stage))
+        if reason:
+            return reason, trace
+    return None, trace
+
+
+def test_stall_rule_ends_a_stage_whose_pressure_is_stuck_below_p_max():
+    """The N = 10^4 floor: p flat at ~6.7e11 < p_max = 1e12 (2.5 % noise) ends the stage after stall_windows."""
+    c = MLSController(10.0, 2.0, 1.0, 1e12, 50, stall_windows=20)
+    flat = 6.7e11 * (1 + 0.0125 * np.sin(np.arange(21)))
+    # the count starts at the first window in the band: 20 more windows end the stage
+    reason, trace = _feed(c, np.concatenate([[8e11, 3e4, 1e8], flat]))
+    assert reason is None
+    assert [rate for rate, _ in trace] == [10.0] * 23 + [0.0]
+    assert c.stalled_stages == 1 and c.stage == 1 and c.stall_count == 0
+    assert isinstance(c.counters()["stalled_stages"], int)  # JSON-safe for checkpoints
+    # equilibration at p < p_max: compress again at gamma_0 / f
+    reason, trace = _feed(c, [6.7e11])
+    assert reason is None and trace[-1] == (5.0, 2)
+    # a stall at a rate <= the final rate ends the search, marked as such
+    c = MLSController(10.0, 2.0, 20.0, 1e12, 50, stall_windows=5)
+    reason, trace = _feed(c, [7e11] * 10)
+    assert reason == "final_rate_stalled" and len(trace) == 6
+    assert c.counters()["stalled_stages"] == 1
+
+
+@pytest.mark.parametrize(
+    "pressures, stall_windows",
+    [
+        (7e11 * np.ones(100), None),  # rule off: the paper's algorithm
+        (5e10 * np.ones(100), 5),  # a plateau far below p_max is not the precision floor
+        (1e11 * 1.02 ** np.arange(100), 20),  # slow but steady growth (+10 % every 5 windows)
+        (7e11 * (1 + 0.3 * (np.arange(100) % 2)), 5),  # noisy p (small N): never 5 windows within 10 %
+    ],
+)
+def test_stall_rule_does_not_fire_on_growth_low_plateaus_or_when_off(pressures, stall_windows):
+    c = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=stall_windows)
+    reason, trace = _feed(c, pressures)
+    assert reason is None and c.stalled_stages == 0 and c.stage == 0
+
+
+def test_stall_rule_state_round_trips_and_old_checkpoints_load():
+    c = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
+    _feed(c, [7e11] * 6)
+    copy = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
+    copy.load(c.state())
+    assert copy.state() == c.state() and copy.stall_count == 5
+    old = {k: v for k, v in c.state().items() if not k.startswith("stall")}
+    fresh = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
+    fresh.load(old)  # a checkpoint from before the rule: the count starts afresh
+    assert fresh.stall_count == 0 and fresh.stall_reference == 0.0 and fresh.rate == c.rate
+
+
+def test_cli_mls_stall_flags(tmp_path):
+    from spherejam.cli import main
+    from spherejam.packing_io import read_packing, write_packing
+
+    src = tmp_path / "in.h5"
+    write_packing(src, poisson_packing(40, 0.0, seed=4))
+    out = tmp_path / "out.h5"
+    quick = ["--final-rate", "1e-1", "--decrease-factor", "10", "--progress-interval", "1e9"]
+    assert main(["mls", str(src), "-o", str(out), "--stall-windows", "77"] + quick) == 0
+    assert read_packing(out).metadata["parameters"]["stall_windows"] == 77
+    assert main(["mls", str(src), "-o", str(out), "--no-stall-rule"] + quick) == 0
+    assert read_packing(out).metadata["parameters"]["stall_windows"] is None
+    for bad in (["--stall-windows", "0"], ["--stall-windows", "5", "--no-stall-rule"]):
+        with pytest.raises(SystemExit) as exc:  # argparse usage error
+            main(["mls", str(src), "-o", str(out)] + bad)
+        assert exc.value.code == 2

@@ -10,6 +10,15 @@ Maxwell–Boltzmann velocities at T = 0.2:
 3. compress again at gamma_k = gamma_0 / f^k (f = 2, k = number of restarts so far);
 4. stop at the first window with p >= p_max while compressing at a rate <= the final rate (1e-4).
 
+One rule is ours, not the paper's: a compression whose pressure has stalled counts as having reached p_max. Near
+p_max = 1e12 the gaps between contacts (~1e-12 of a diameter) approach the spacing of double-precision coordinates
+(3.6e-15 for |x| in [16, 32), i.e. a box of 10^4 spheres), and the growth per window (gamma * dt ~ 1e-15 at gamma ~
+3e-4) is absorbed as round-off overlaps, which the collision rule resolves. The pressure then stops rising below
+p_max (measured at N = 10^4: p stuck at 6.6-6.8e11 for > 3000 windows; normal stages never go more than ~60 windows
+without a 10 % change). So if, while compressing, p >= ``STALL_PRESSURE_FRACTION`` * p_max and p has stayed within
+a factor ``STALL_BAND`` for ``stall_windows`` windows in a row, the stage ends as if p_max were reached (counted in
+``stalled_stages``; at the final rate the stop reason is "final_rate_stalled").
+
 The closest jamming density phi_J is the packing fraction when the loop stops. Fast compressions at the start keep
 the configuration in its initial basin; slow ones at the end make the high pressure a sign of true jamming.
 """
@@ -34,6 +43,12 @@ from .packing import Packing
 from .runs import RunResult
 
 CHECKPOINT_KIND_MLS = "mls"
+#: A stall counts only at p >= this fraction of p_max: lower plateaus are not the precision floor.
+STALL_PRESSURE_FRACTION = 0.1
+#: p "has not changed" while it stays within this factor of its value when the count started.
+STALL_BAND = 1.1
+#: Default ``stall_windows``: ~17x the longest flat stretch of a normal N = 10^4 stage, ~1/3 of a measured stall.
+DEFAULT_STALL_WINDOWS = 1000
 
 
 class MLSController(Controller):
@@ -46,7 +61,7 @@ class MLSController(Controller):
     extra_columns = ("stage",)
 
     def __init__(self, initial_rate: float, decrease_factor: float, final_rate: float, p_max: float,
-                 max_equilibration_windows: int):
+                 max_equilibration_windows: int, stall_windows: int | None = DEFAULT_STALL_WINDOWS):
         super().__init__(initial_rate, p_max)
         self.initial_rate = float(initial_rate)
         self.decrease_factor = float(decrease_factor)
@@ -57,16 +72,31 @@ class MLSController(Controller):
         self.stage = 0
         self.last_growth_rate = float(initial_rate)
         self.equilibration_windows = 0
+        self.stall_windows = 0 if stall_windows is None else int(stall_windows)  # 0: rule off
+        self.stall_reference = 0.0  # p when the current flat stretch began (0: none yet in this stage)
+        self.stall_count = 0
+        self.stalled_stages = 0
+
+    def _stalled(self, p: float) -> bool:
+        if self.stall_reference > 0 and self.stall_reference / STALL_BAND <= p <= self.stall_reference * STALL_BAND:
+            self.stall_count += 1
+        else:
+            self.stall_reference, self.stall_count = p, 0
+        return (self.stall_windows > 0 and self.stall_count >= self.stall_windows
+                and p >= STALL_PRESSURE_FRACTION * self.p_max)
 
     def after_window(self, stats: WindowStats) -> str | None:
         p = stats.pressure
         if self.rate > 0:
-            if p >= self.p_max:
+            stalled = bool(p < self.p_max and self._stalled(p))
+            if p >= self.p_max or stalled:
+                self.stalled_stages += int(stalled)
                 if self.rate <= self.final_rate:
-                    return "final_rate"
+                    return "final_rate_stalled" if stalled else "final_rate"
                 self.last_growth_rate = self.rate
                 self.rate = 0.0
                 self.equilibration_count = 0
+                self.stall_reference, self.stall_count = 0.0, 0
                 self.stage += 1
         else:
             self.equilibration_windows += 1
@@ -84,14 +114,16 @@ class MLSController(Controller):
     def extra_row(self) -> dict[str, Any]:
         return {"stage": self.stage}
 
-    _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows")
+    _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows",
+              "stall_reference", "stall_count", "stalled_stages")
 
     def state(self) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self._STATE}
 
     def load(self, state: dict[str, Any]) -> None:
         for k in self._STATE:
-            setattr(self, k, type(getattr(self, k))(state[k]))
+            # checkpoints written before the stall rule lack its fields: they start from a fresh count
+            setattr(self, k, type(getattr(self, k))(state.get(k, getattr(self, k))))
 
     def counters(self) -> dict[str, Any]:
         return {
@@ -99,12 +131,14 @@ class MLSController(Controller):
             "rate_decreases": self.restarts,
             "equilibration_windows": self.equilibration_windows,
             "final_rate_reached": self.rate if self.rate > 0 else self.last_growth_rate,
+            "stalled_stages": self.stalled_stages,
         }
 
 
 def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrease_factor: float = 2.0,
                          final_rate: float = 1e-4, p_max: float = 1e12, max_equilibration_windows: int = 50,
-                         seed: int = 0, events_per_particle: int = 20, max_collisions: int | None = None,
+                         stall_windows: int | None = DEFAULT_STALL_WINDOWS, seed: int = 0,
+                         events_per_particle: int = 20, max_collisions: int | None = None,
                          max_wall_time: float | None = None,
                          checkpoint=None, checkpoint_interval: float = 300.0, progress_interval: float = 10.0,
                          count_collisions_only: bool = False, temperature: float = DEFAULT_TEMPERATURE,
@@ -126,6 +160,10 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
         Reduced-pressure threshold (> 1; paper: 1e12).
     max_equilibration_windows : int
         Zero-rate windows in a row with p >= p_max after which the packing counts as jammed (paper: 50).
+    stall_windows : int or None
+        Compression windows in a row with p >= p_max / 10 staying within a factor 1.1 after which the stage counts
+        as having reached p_max (the double-precision floor; see the module docstring). None turns the rule off
+        (the paper's algorithm exactly, which can then compress forever at N >= 10^4).
     max_collisions : int, optional
         Cut the search after this many collisions in total (``stop_reason="max_collisions"``). Unlike
         ``max_wall_time`` the cut is deterministic: the same input and seed give the same output on any machine.
@@ -139,8 +177,9 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     RunResult
         The jammed packing (actual diameters; metadata ``algorithm="mls"``), per-window history (as LS plus
         ``stage``) and counters: ``phi_J``, ``phi_initial``, ``stages``, ``rate_decreases``,
-        ``equilibration_windows``, ``final_rate_reached``, ``stop_reason`` ("final_rate", "jammed",
-        "max_collisions" or "max_wall_time"), ``collisions``, ``events``, ``windows``, ``wall_time``.
+        ``equilibration_windows``, ``final_rate_reached``, ``stalled_stages``, ``stop_reason`` ("final_rate",
+        "final_rate_stalled", "jammed", "max_collisions" or "max_wall_time"), ``collisions``, ``events``,
+        ``windows``, ``wall_time``.
     """
     validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
                     max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
@@ -151,15 +190,19 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     require(_finite(final_rate) and final_rate > 0, "final_rate", final_rate, "must be a finite number > 0")
     require(isinstance(max_equilibration_windows, (int, np.integer)) and max_equilibration_windows >= 1,
             "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
+    require(stall_windows is None or (isinstance(stall_windows, (int, np.integer)) and stall_windows >= 1),
+            "stall_windows", stall_windows, "must be an integer >= 1 or None")
     parameters = {
         "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),
         "final_rate": float(final_rate), "p_max": float(p_max),
-        "max_equilibration_windows": int(max_equilibration_windows), "seed": int(seed),
+        "max_equilibration_windows": int(max_equilibration_windows),
+        "stall_windows": None if stall_windows is None else int(stall_windows), "seed": int(seed),
         "events_per_particle": int(events_per_particle), "max_wall_time": max_wall_time,
         "max_collisions": None if max_collisions is None else int(max_collisions),
         "count_collisions_only": bool(count_collisions_only), "temperature": float(temperature),
     }
-    controller = MLSController(initial_rate, decrease_factor, final_rate, p_max, max_equilibration_windows)
+    controller = MLSController(initial_rate, decrease_factor, final_rate, p_max, max_equilibration_windows,
+                               stall_windows)
     result = drive(packing, controller, algorithm="mls", parameters=parameters, seed=seed,
                    events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
                    temperature=temperature, target_phi=None, max_collisions=max_collisions, max_wall_time=max_wall_time,

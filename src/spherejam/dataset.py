@@ -40,6 +40,7 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "mls_windows": ("pressure windows of the MLS run", "1"),
     "mls_wall_time": ("wall time of the MLS run", "s"),
     "mls_completed": ("1 if MLS stopped by its own rule (final rate or jammed), 0 if cut by a cap", "1"),
+    "mls_stalled_stages": ("MLS compression stages ended by the pressure-stall rule instead of p >= p_max", "1"),
     "grid_phi": ("packing fraction of the source LS packing", "1"),
     "grid_phi_J": ("closest jamming density (MLS with the grid's parameters)", "1"),
     "grid_collisions": ("collisions of the MLS run", "1"),
@@ -66,7 +67,7 @@ COORDS: dict[str, tuple[str, str]] = {
 
 
 #: MLS stop reasons that end the search by the paper's rule (anything else, e.g. a max_collisions cut, is incomplete).
-MLS_COMPLETED = ("final_rate", "jammed")
+MLS_COMPLETED = ("final_rate", "final_rate_stalled", "jammed")
 
 
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
@@ -126,6 +127,8 @@ def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
         f"{p}wall_time": _num(c.get("wall_time")),
         f"{p}completed": float(c.get("stop_reason", "final_rate") in MLS_COMPLETED),
     }
+    if not prefix:
+        out["mls_stalled_stages"] = _num(c.get("stalled_stages", 0))
     if not prefix:
         out.update(
             phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows"))

@@ -41,6 +41,12 @@ def register(sub) -> None:
     p.add_argument("--final-rate", type=finite_float, default=1e-4, help="termination rate (default 1e-4)")
     p.add_argument("--max-equilibration-windows", type=int_at_least(1), default=50,
                    help="zero-rate windows with p >= p_max that mean 'jammed' (default 50)")
+    stall = p.add_mutually_exclusive_group()
+    stall.add_argument("--stall-windows", type=int_at_least(1), default=None,
+                       help="compression windows with p >= p_max/10 flat within 10%% that end a stage as if p_max "
+                            "were reached (double-precision floor; default 1000)")
+    stall.add_argument("--no-stall-rule", action="store_true",
+                       help="the paper's rule exactly: a stage ends only at p >= p_max")
     p.add_argument("--max-collisions-per-particle", type=finite_float, default=None,
                    help="cut the search after this many collisions per particle (deterministic; default: no cut)")
     p.set_defaults(func=_mls)
@@ -76,7 +82,7 @@ def _ls(args) -> int:
 
 
 def _mls(args) -> int:
-    from ..closest_jamming import find_closest_jamming
+    from ..closest_jamming import DEFAULT_STALL_WINDOWS, find_closest_jamming
     from ..packing_io import read_packing
 
     packing = read_packing(args.input)
@@ -87,6 +93,7 @@ def _mls(args) -> int:
         max_collisions = max(1, int(round(args.max_collisions_per_particle * packing.n)))
     result = find_closest_jamming(
         packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,
-        max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions, **_options(args),
+        max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions,
+        stall_windows=None if args.no_stall_rule else (args.stall_windows or DEFAULT_STALL_WINDOWS), **_options(args),
     )
     return _finish(args, result, f"MLS stages={result.counters['stages']}")
