@@ -111,7 +111,8 @@ def main() -> None:
                   f"(largest crystal {row['largest_crystal']:.3f})", flush=True)
             if args.json:
                 with open(args.json, "a") as f:
-                    f.write(json.dumps(row) + "\n")
+                    # numpy scalars as plain numbers: a row that fails to serialise would lose hours of work
+                    f.write(json.dumps(row, default=lambda o: o.item() if hasattr(o, "item") else str(o)) + "\n")
     fast = [r["phi_J"] for r in rows if r["kind"] == "fast"]
     if fast:
         lo, hi = PAPER_BAND_SIGMA0
