@@ -35,6 +35,7 @@ def test_dry_run(config, tmp_path):
         ({"ls": {"rates": [0.0]}}, "rates"),
         ({"mls": {"decrease_factor": 1.0}}, "decrease_factor"),
         ({"mls": {"max_collisions_per_particle": 0}}, "max_collisions_per_particle"),
+        ({"mls": {"stall_windows": 0}}, "stall_windows"),
     ],
 )
 def test_bad_config_stops_before_any_job(change, needle, tmp_path):

@@ -66,7 +66,7 @@ COORDS: dict[str, tuple[str, str]] = {
 }
 
 
-#: MLS stop reasons that end the search by the paper's rule (anything else, e.g. a max_collisions cut, is incomplete).
+#: MLS stop reasons that end the search by its own rules (anything else, e.g. a max_collisions cut, is incomplete).
 MLS_COMPLETED = ("final_rate", "final_rate_stalled", "jammed")
 
 
