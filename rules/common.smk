@@ -40,10 +40,10 @@ def run_seed(purpose):
     return lambda wildcards: run_of(wildcards).seed(EXP.master_seed, purpose)
 
 
-def mls_limits():
-    """The MLS cut-off and stall-rule flags of the config."""
+def mls_options():
+    """The MLS stall-rule and cut-off flags of the config (the schema has filled in the defaults)."""
     mls = config["mls"]
-    stall = mls.get("stall_windows", 1000)
+    stall = mls["stall_windows"]
     flags = ["--no-stall-rule" if stall is None else f"--stall-windows {stall}"]
     if mls.get("max_collisions_per_particle") is not None:
         flags.append(f"--max-collisions-per-particle {mls['max_collisions_per_particle']}")

@@ -18,7 +18,7 @@ rule jam:
         final_rate=MLS["final_rate"],
         p_max=MLS["p_max"],
         max_eq=MLS["max_equilibration_windows"],
-        limits=mls_limits(),
+        options=mls_options(),
     log:
         f"{R}/logs/mls/{RUN}.log",
     benchmark:
@@ -31,4 +31,4 @@ rule jam:
     shell:
         "spherejam mls {input} --initial-rate {params.initial_rate} --decrease-factor {params.decrease_factor}"
         " --final-rate {params.final_rate} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"
-        " --seed {params.seed} {params.limits} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"

@@ -16,7 +16,7 @@ rule jam_validation_grid:
         checkpoint=f"{R}/checkpoints/validation/{GRID_RUN}.h5",
         p_max=MLS["p_max"],
         max_eq=MLS["max_equilibration_windows"],
-        limits=mls_limits(),
+        options=mls_options(),
     log:
         f"{R}/logs/validation/{GRID_RUN}.log",
     benchmark:
@@ -29,4 +29,4 @@ rule jam_validation_grid:
     shell:
         "spherejam mls {input} --initial-rate {wildcards.g0} --decrease-factor {wildcards.factor}"
         " --final-rate {wildcards.gf} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"
-        " --seed {params.seed} {params.limits} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"

@@ -128,10 +128,9 @@ def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
         f"{p}completed": float(c.get("stop_reason", "final_rate") in MLS_COMPLETED),
     }
     if not prefix:
-        out["mls_stalled_stages"] = _num(c.get("stalled_stages", 0))
-    if not prefix:
         out.update(
-            phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows"))
+            phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows")),
+            mls_stalled_stages=_num(c.get("stalled_stages", 0)),
         )
     else:
         out[f"{p}phi_J"] = _num(a.get("phi"))
