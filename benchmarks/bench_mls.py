@@ -4,8 +4,10 @@ Start: Poisson (seed 2024) -> LS at gamma = 0.5 (1/gamma = 2, a "fast" packing o
 Then MLS with the paper's parameters (gamma_0 = 10, f = 2, final rate 1e-4, p_max = 1e12, 20 events per particle).
 Reference: the paper's code takes ~7 min for N = 1e3 at sigma = 0.3 and 10-20 h for N = 1e4; target N = 1e4 <= 1 h.
 
-A run cut by ``--max-wall-time`` prints its progress and an extrapolated total from the collisions per particle of
-the N = 1e3 runs (MLS costs ~1e5 collisions per particle, roughly independent of N); the extrapolation is marked.
+A run cut by ``--max-wall-time`` prints its progress and an extrapolated total, marked as such, from an expected
+number of collisions per particle: ``--collisions-per-particle``, else the cost model of
+:mod:`spherejam.cluster_resources` (2.4e5 at N = 1e3, growing as N^0.66: ~1.1e6 at N = 1e4, the mean of five
+measured searches).
 
     python benchmarks/bench_mls.py                                   # N = 1e3, sigma 0 and 0.3
     python benchmarks/bench_mls.py --sizes 10000 --max-wall-time 1800
@@ -17,6 +19,7 @@ import argparse
 import time
 
 from spherejam.closest_jamming import find_closest_jamming
+from spherejam.cluster_resources import mls_collisions_per_particle
 from spherejam.lubachevsky_stillinger import run_ls
 from spherejam.seeding import poisson_packing
 
@@ -27,9 +30,8 @@ def main() -> None:
     ap.add_argument("--sigmas", type=float, nargs="*", default=[0.0, 0.3])
     ap.add_argument("--max-wall-time", type=float, default=None, help="cap per MLS run (seconds)")
     ap.add_argument("--collisions-per-particle", type=float, default=None,
-                    help="for the extrapolation of capped runs (default: from the uncapped runs of this call)")
+                    help="for the extrapolation of capped runs (default: the cost model at this N)")
     args = ap.parse_args()
-    per_particle = []
     for n in args.sizes:
         for sigma in args.sigmas:
             start = run_ls(poisson_packing(n, sigma, seed=2024), 0.5, seed=1, progress_interval=1e9).packing
@@ -42,14 +44,9 @@ def main() -> None:
                     f"({c['collisions'] / n:,.0f}/particle) wall={wall:.1f}s = {wall / 60:.1f} min "
                     f"({c['collisions'] / wall / 1e6:.3f} M collisions/s)")
             if c["stop_reason"] == "max_wall_time":
-                cpp = args.collisions_per_particle or (sum(per_particle) / len(per_particle) if per_particle else None)
-                if cpp:
-                    est = cpp * n / (c["collisions"] / wall)
-                    line += (f"  [CAPPED; EXTRAPOLATED total ~{est / 60:.0f} min at {cpp:,.0f} collisions/particle]")
-                else:
-                    line += "  [CAPPED]"
-            else:
-                per_particle.append(c["collisions"] / n)
+                cpp = args.collisions_per_particle or mls_collisions_per_particle(n=n)
+                est = cpp * n / (c["collisions"] / wall)
+                line += (f"  [CAPPED; EXTRAPOLATED total ~{est / 60:.0f} min at {cpp:,.0f} collisions/particle]")
             print(line, flush=True)
 
 

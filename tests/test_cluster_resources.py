@@ -35,6 +35,25 @@ def test_time_limits_cover_the_reference_codes_runs():
     assert 1.2e5 <= per_particle <= 5 * 1.2e5
 
 
+# MLS searches of the band check (issue 4): N = 10^4, sigma = 0, fast LS start, the paper's ladder 10 -> 1e-4.
+# CPU hours: measured for seed 1; from the collisions at the measured 0.95e6/s for the others (run in pieces).
+MEASURED_MLS_1E4 = {"collisions": (5.98e9, 11.33e9, 9.19e9, 11.33e9, 16.0e9),
+                    "cpu_hours": (1.27, 3.13, 2.47, 3.33, 4.68)}
+
+
+def test_mls_model_matches_the_n_1e4_searches():
+    per_particle = cr.mls_collisions_per_particle(n=10000)
+    collisions = MEASURED_MLS_1E4["collisions"]
+    assert min(collisions) < 10000 * per_particle < max(collisions)
+    hours = cr.cpu_seconds("mls", 10000) / 3600
+    assert min(MEASURED_MLS_1E4["cpu_hours"]) < hours < 1.5 * max(MEASURED_MLS_1E4["cpu_hours"])
+    # the limit covers the slowest search on a node 2x slower than ours
+    assert cr.runtime_minutes("mls", 10000) / 60 > 2 * max(MEASURED_MLS_1E4["cpu_hours"])
+    # per particle the cost grows with N (a larger packing unjams more often), and not below N = 1000
+    assert cr.mls_collisions_per_particle(n=10000) > 3 * cr.mls_collisions_per_particle(n=1000)
+    assert cr.mls_collisions_per_particle(n=100) == cr.mls_collisions_per_particle(n=1000)
+
+
 def test_mls_rate_ladder_is_the_papers():
     rates = cr.mls_rates(10.0, 2.0, 1e-4)
     assert len(rates) == 18  # 10, 5, ..., 10 / 2^17
@@ -118,6 +137,7 @@ def test_works_as_snakemake_resource_callables():
         (lambda: cr.runtime_minutes("mls", 100, decrease_factor=1.0), "decrease_factor"),
         (lambda: cr.runtime_minutes("mls", 100, final_rate=0.0), "final_rate"),
         (lambda: cr.mem_mb("seed", 100, attempt=True), "attempt"),
+        (lambda: cr.mls_collisions_per_particle(n=1), "n"),
     ],
 )
 def test_bad_input_names_the_field(call, field):

@@ -17,13 +17,38 @@ def snakemake(*args, cwd=ROOT, timeout=1200):
     return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
 
 
+def _merged(name):
+    """A config file as Snakemake sees it: config/config.yaml updated (recursively) with the file."""
+    def update(base, new):
+        for key, value in new.items():
+            if isinstance(value, dict) and isinstance(base.get(key), dict):
+                update(base[key], value)
+            else:
+                base[key] = value
+        return base
+    return update(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()),
+                  yaml.safe_load((ROOT / "config" / name).read_text()))
+
+
 @pytest.mark.parametrize("config", ["config.yaml", "tiny.yaml", "paper.yaml"])
 def test_dry_run(config, tmp_path):
     cfg = yaml.safe_load((ROOT / "config" / config).read_text())
     cfg["results"] = str(tmp_path / "results")
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
-    r = snakemake("-n", "--quiet", "rules", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
+    r = snakemake("-n", "-p", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
     assert r.returncode == 0, r.stderr[-3000:]
+    # every MLS job gets the MLS settings of the merged config (the paper's must not inherit the default's cut)
+    mls_jobs = [line for line in r.stdout.splitlines() if "spherejam mls " in line]
+    assert mls_jobs
+    mls = _merged(config)["mls"]
+    cut = mls.get("max_collisions_per_particle")
+    assert all(f"--stall-windows {mls['stall_windows']}" in job for job in mls_jobs)
+    if cut is None:
+        assert not any("--max-collisions-per-particle" in job for job in mls_jobs)
+    else:
+        assert all(f"--max-collisions-per-particle {float(cut)}" in job for job in mls_jobs)
+    if config == "paper.yaml":
+        assert cut is None
 
 
 @pytest.mark.parametrize(

@@ -10,14 +10,15 @@ Maxwell–Boltzmann velocities at T = 0.2:
 3. compress again at gamma_k = gamma_0 / f^k (f = 2, k = number of restarts so far);
 4. stop at the first window with p >= p_max while compressing at a rate <= the final rate (1e-4).
 
-One rule is ours, not the paper's: a compression whose pressure has stalled counts as having reached p_max. Near
-p_max = 1e12 the gaps between contacts (~1e-12 of a diameter) approach the spacing of double-precision coordinates
-(3.6e-15 for |x| in [16, 32), i.e. a box of 10^4 spheres), and the growth per window (gamma * dt ~ 1e-15 at gamma ~
-3e-4) is absorbed as round-off overlaps, which the collision rule resolves. The pressure then stops rising below
-p_max (measured at N = 10^4: p stuck at 6.6-6.8e11 for > 3000 windows; normal stages never go more than ~60 windows
-without a 10 % change). So if, while compressing, p >= ``STALL_PRESSURE_FRACTION`` * p_max and p has stayed within
-a factor ``STALL_BAND`` for ``stall_windows`` windows in a row, the stage ends as if p_max were reached (counted in
-``stalled_stages``; at the final rate the stop reason is "final_rate_stalled").
+One rule is ours, not the paper's: a compression whose pressure has stalled counts as having reached p_max. In the
+slow stages near p_max = 1e12 the growth of the diameters during one window (gamma * dt ~ 1e-15 - 4e-15 at gamma <=
+6e-4) is at or below the spacing of double-precision coordinates (3.6e-15 for |x| in [16, 32), i.e. a box of 10^4
+spheres), so it is absorbed as round-off overlaps, which the collision rule resolves, and the pressure stops rising
+below p_max (measured at N = 10^4: stages flat at p = 1.3e11 - 7.2e11 for > 1000 windows, with phi growing by
+<= 2.4e-11; normal stages never go more than ~60 windows without a 10 % change). So if, while compressing,
+p >= ``STALL_PRESSURE_FRACTION`` * p_max and p has stayed within a factor ``STALL_BAND`` for ``stall_windows``
+windows in a row, the stage ends as if p_max were reached (counted in ``stalled_stages``; at the final rate the stop
+reason is "final_rate_stalled").
 
 The closest jamming density phi_J is the packing fraction when the loop stops. Fast compressions at the start keep
 the configuration in its initial basin; slow ones at the end make the high pressure a sign of true jamming.

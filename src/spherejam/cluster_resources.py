@@ -10,12 +10,16 @@ development machine (AMD EPYC VM; figures in docs/cluster.md and reference-bench
 * LS, collisions per particle from a Poisson start to p = 1e12 at compression rate gamma (the paper's gamma):
   ``300 + 2500 (1e-2 / gamma)^0.92``. Measured (N = 1000, sigma = 0): 523 / 2533 / 20177 at gamma = 1e-1 / 1e-2 /
   1e-3 (the reference C++ code: 495 / 2367 / 18525); the number per particle hardly depends on N.
-* Event-driven speed (LS and MLS): ``6e5 (N / 1000)^-0.17`` collisions per second; measured 5.4-6.4e5/s at N = 1000
-  and 4.1e5/s at N = 10^4 (the reference code: 2.8e5 and 2.2e5).
+* Event-driven speed (LS and MLS): ``9.5e5 (N / 1000)^-0.05`` collisions per CPU second. Measured with the
+  engine of issue 3 (the other core busy): MLS 0.91-0.97e6/s at N = 1000 and 0.92-0.95e6/s at N = 10^4, LS
+  1.6e6 / 1.15e6 / 0.72e6 at N = 10^3 / 10^4 / 10^5 (the reference code: 2.8e5 and 2.2e5 at N = 10^3 / 10^4).
 * MLS (gamma_0 -> gamma_final, decrease factor f): one LS-like compression per rate gamma_k = gamma_0 / f^k, down to
-  the first rate <= gamma_final. The sum of the LS costs of all those rates over-estimates what the reference code
-  needed (N = 500 / 1000: 7.1e4 / 1.2e5 collisions per particle against a sum of 4.6e5), because a phase ends early
-  when the packing is still jammed; half the sum is used.
+  the first rate <= gamma_final. The sum of the LS costs of all those rates over-estimates what a search needs at
+  N = 1000, because a phase ends early when the packing is still jammed: half the sum is used (2.4e5 collisions per
+  particle for the paper's ladder; measured 1.3-3.95e5 in seven N = 1000 searches, the reference code 7.1e4 / 1.2e5
+  at N = 500 / 1000 from gamma_0 = 1e-2). Per particle the cost grows with N, because a larger packing unjams more
+  often in the slow stages: ``(N / 1000)^MLS_SIZE_EXPONENT`` on top, fitted to the five N = 10^4 searches of the
+  band check (6.0-16.0e9 collisions, mean 10.8e9, from fast LS starts, ``benchmarks/mls_science.py``).
 * FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
 * CALiPPSO: ~10 LPs (7 from an MLS output at N = 2048, 11 from an LS + MLS start at p = 1e5 at N = 1024) of
@@ -48,10 +52,12 @@ LS_BASE = 300.0
 LS_AT_1E2 = 2500.0
 LS_EXPONENT = 0.92
 #: Event-driven collisions per CPU second at N = 1000, and its decrease with N (cache misses).
-COLLISIONS_PER_SECOND = 6.0e5
-SPEED_EXPONENT = -0.17
-#: Fraction of the summed per-rate LS costs that an MLS run needs (see the module docstring).
+COLLISIONS_PER_SECOND = 9.5e5
+SPEED_EXPONENT = -0.05
+#: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (see the module docstring).
 MLS_PHASE_FRACTION = 0.5
+#: Growth of the MLS collisions per particle with N above 1000: (N / 1000)^MLS_SIZE_EXPONENT.
+MLS_SIZE_EXPONENT = 0.66
 #: FB: iterations = FB_BASE + FB_PER_INVERSE_RATE / gamma, seconds per iteration = FB_SECONDS * N.
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
@@ -127,10 +133,12 @@ def mls_rates(initial_rate: float = 10.0, decrease_factor: float = 2.0, final_ra
 
 
 def mls_collisions_per_particle(initial_rate: float = 10.0, decrease_factor: float = 2.0,
-                                final_rate: float = 1e-4) -> float:
-    """Expected collisions per particle of one MLS run (paper defaults: 10 -> 1e-4, factor 2)."""
+                                final_rate: float = 1e-4, n: int = 1000) -> float:
+    """Expected collisions per particle of one MLS run of N particles (paper defaults: 10 -> 1e-4, factor 2)."""
+    n = _check_n(n)
     ladder = mls_rates(initial_rate, decrease_factor, final_rate)
-    return MLS_PHASE_FRACTION * sum(ls_collisions_per_particle(g) for g in ladder)
+    size = (max(n, 1000) / 1000.0) ** MLS_SIZE_EXPONENT
+    return MLS_PHASE_FRACTION * sum(ls_collisions_per_particle(g) for g in ladder) * size
 
 
 def fb_iterations(rate: float) -> float:
@@ -156,7 +164,7 @@ def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: 
     if stage == "fb":
         return fb_iterations(rate) * FB_SECONDS * n
     if stage == "mls":
-        return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate) / collisions_per_second(n)
+        return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
     if stage == "calippso":
         return CALIPPSO_ITERATIONS * CALIPPSO_LP_SECONDS * (n / 1024.0) ** CALIPPSO_EXPONENT
     if stage == "analyze":
