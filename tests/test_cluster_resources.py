@@ -36,7 +36,7 @@ def test_time_limits_cover_the_reference_codes_runs():
 
 
 # MLS searches of the band check (issue 4): N = 10^4, sigma = 0, fast LS start, the paper's ladder 10 -> 1e-4.
-# CPU hours: measured for seed 1; from the collisions at the measured 0.95e6/s for the others (run in pieces).
+# CPU hours: measured for seed 1; estimated for seeds 2-5, which ran in pieces (from their collisions at 0.95-1.3e6/s).
 MEASURED_MLS_1E4 = {"collisions": (5.98e9, 11.33e9, 9.19e9, 11.33e9, 16.0e9),
                     "cpu_hours": (1.27, 3.13, 2.47, 3.33, 4.68)}
 
@@ -173,3 +173,10 @@ def test_plan_counts_the_workflows_jobs():
     assert table.get("mls-grid", {"jobs": 0})["jobs"] == len(exp.grid_runs())
     for row in table.values():
         assert row["requested_hours"] >= row["cpu_hours"] > 0
+
+
+def test_load_configs_merges_later_files_over_earlier_recursively(tmp_path):
+    (tmp_path / "a.yaml").write_text("n: 200\nmls: {final_rate: 1.0e-4, max_collisions_per_particle: 5.0e+5}\n")
+    (tmp_path / "b.yaml").write_text("n: 10000\nmls: {max_collisions_per_particle: null}\n")
+    merged = cr.load_configs(tmp_path / "a.yaml", tmp_path / "b.yaml")
+    assert merged == {"n": 10000, "mls": {"final_rate": 1e-4, "max_collisions_per_particle": None}}

@@ -9,25 +9,14 @@ import numpy as np
 import pytest
 import yaml
 
+from spherejam.cluster_resources import load_configs
+
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 
 
 def snakemake(*args, cwd=ROOT, timeout=1200):
     return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
-
-
-def _merged(name):
-    """A config file as Snakemake sees it: config/config.yaml updated (recursively) with the file."""
-    def update(base, new):
-        for key, value in new.items():
-            if isinstance(value, dict) and isinstance(base.get(key), dict):
-                update(base[key], value)
-            else:
-                base[key] = value
-        return base
-    return update(yaml.safe_load((ROOT / "config" / "config.yaml").read_text()),
-                  yaml.safe_load((ROOT / "config" / name).read_text()))
 
 
 @pytest.mark.parametrize("config", ["config.yaml", "tiny.yaml", "paper.yaml"])
@@ -40,7 +29,7 @@ def test_dry_run(config, tmp_path):
     # every MLS job gets the MLS settings of the merged config (the paper's must not inherit the default's cut)
     mls_jobs = [line for line in r.stdout.splitlines() if "spherejam mls " in line]
     assert mls_jobs
-    mls = _merged(config)["mls"]
+    mls = load_configs(ROOT / "config" / "config.yaml", ROOT / "config" / config)["mls"]
     cut = mls.get("max_collisions_per_particle")
     assert all(f"--stall-windows {mls['stall_windows']}" in job for job in mls_jobs)
     if cut is None:

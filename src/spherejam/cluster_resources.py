@@ -271,15 +271,10 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m spherejam.cluster_resources CONFIG.yaml [MORE.yaml]``: print the cost of a workflow config."""
     import argparse
 
-    import yaml
-
     ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")
     ap.add_argument("configs", nargs="+", help="config files, e.g. config/config.yaml config/paper.yaml")
     args = ap.parse_args(argv)
-    config: dict = {}
-    for path in args.configs:
-        with open(path) as fh:
-            _merge(config, yaml.safe_load(fh) or {})
+    config = load_configs(*args.configs)
     table = plan(config)
     print(f"N = {config['n']}; first attempts; expected = model CPU time, requested = sum of SLURM time limits")
     print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
@@ -288,6 +283,18 @@ def main(argv: list[str] | None = None) -> int:
     total = {k: sum(r[k] for r in table.values()) for k in ("jobs", "cpu_hours", "requested_hours")}
     print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
     return 0
+
+
+def load_configs(*paths) -> dict:
+    """Config files merged as Snakemake merges ``--configfile`` over the Snakefile's: later files override earlier
+    ones key by key, recursively into nested mappings."""
+    import yaml  # lazy: the rules' resource lambdas never need it
+
+    config: dict = {}
+    for path in paths:
+        with open(path) as fh:
+            _merge(config, yaml.safe_load(fh) or {})
+    return config
 
 
 def _merge(base: dict, update: dict) -> None:
