@@ -172,6 +172,21 @@ def read_packing(
         # h5py reports truncated or non-HDF5 files as OSError with internal detail; keep the first line only.
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         _fail(path, f"not a readable HDF5 packing file ({reason})")
+    packing = validated_packing(path, positions, diameters, box, meta, tolerance)
+    return (packing, history or {}) if with_history else packing
+
+
+def validated_packing(
+    path, positions: np.ndarray, diameters: np.ndarray, box: float, metadata: dict[str, Any] | None = None,
+    tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE,
+) -> Packing:
+    """The checks every packing reader runs (HDF5 and the other formats, :mod:`spherejam.formats`).
+
+    Shapes, finiteness, centres in [0, L), at least 2 spheres, and (unless ``tolerance`` is None) no pair
+    overlapping beyond ``tolerance``; any problem raises :class:`PackingFileError` naming ``path``.
+    """
+    positions = np.asarray(positions)
+    diameters = np.asarray(diameters)
     if positions.ndim != 2 or not 2 <= positions.shape[1] <= 5:
         _fail(path, f"positions have shape {positions.shape}, expected (N, d) with 2 <= d <= 5")
     if diameters.shape != (positions.shape[0],):
@@ -179,20 +194,20 @@ def read_packing(
     if positions.shape[0] < 2:
         _fail(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
     if not (math.isfinite(box) and box > 0):
-        _fail(path, f"box attribute is {box!r}, expected a finite number > 0")
+        _fail(path, f"box side is {box!r}, expected a finite number > 0")
     if not np.all(np.isfinite(positions)):
         _fail(path, "positions contain NaN or infinity")
     if not (np.all(np.isfinite(diameters)) and np.all(diameters > 0)):
         _fail(path, "diameters must be finite and > 0")
     if np.any(positions < 0) or np.any(positions >= box):
         _fail(path, f"positions lie outside the box [0, {box})")
-    packing = Packing(positions, diameters, box, meta)
+    packing = Packing(positions, diameters, box, metadata or {})
     if tolerance is not None:
         try:
             packing.validate(tolerance, what=str(path))
         except OverlapError as exc:
             raise PackingFileError(str(exc)) from None
-    return (packing, history or {}) if with_history else packing
+    return packing
 
 
 def export_xyz(packing: Packing, path: str | os.PathLike) -> Path:

@@ -1,4 +1,4 @@
-"""``spherejam seed | info | check | export``: make, inspect, validate and convert packing files."""
+"""``spherejam seed | info | check | export | import``: make, inspect, validate and convert packing files."""
 
 from __future__ import annotations
 
@@ -31,11 +31,28 @@ def register(sub) -> None:
     p.add_argument("--tolerance", type=finite_float, default=1e-10, help="relative overlap tolerance (1e-10)")
     p.set_defaults(func=_check)
 
-    p = sub.add_parser("export", help="convert a packing file (extended XYZ for OVITO)")
+    from ..formats import FORMATS, READABLE
+
+    formats = "; ".join(f"{name}: {f.description}" for name, f in FORMATS.items())
+    p = sub.add_parser("export", help="convert a packing file to another code's format (docs/formats.md)",
+                       description=f"Formats: {formats}.")
     p.add_argument("path", type=Path)
-    p.add_argument("--format", choices=("xyz",), default="xyz")
-    p.add_argument("-o", "--output", type=Path, help="output path (default: input with the format's suffix)")
+    p.add_argument("--format", choices=tuple(FORMATS), default="xyz", help="output format (default xyz)")
+    p.add_argument("-o", "--output", type=Path,
+                   help="output path (default: input with the format's suffix; packing-generation: a folder)")
     p.set_defaults(func=_export)
+
+    p = sub.add_parser("import", help="read another code's packing, validate it, write a spherejam packing file",
+                       description=f"Formats: {formats}.")
+    p.add_argument("path", type=Path, help="input file (packing-generation: its folder or packing.xyzd)")
+    p.add_argument("--format", choices=READABLE, default=None, help="input format (default: from the suffix)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("--tolerance", type=finite_float, default=1e-10,
+                   help="relative overlap tolerance (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
+    p.add_argument("--box", type=finite_float, default=None,
+                   help="calippso-jl only: side L of the periodic cube, which the file does not hold (default 1)")
+    p.add_argument("--frame", type=int, default=None, help="gsd only: frame to read (default -1, the last)")
+    p.set_defaults(func=_import)
 
 
 def _seed(args) -> int:
@@ -105,10 +122,37 @@ def _check(args) -> int:
 
 
 def _export(args) -> int:
-    from ..packing_io import export_xyz, read_packing
+    from ..formats import FORMATS, default_output, write
+    from ..packing_io import read_packing
 
     packing = read_packing(args.path)
-    out = args.output or args.path.with_suffix(".xyz")
-    export_xyz(packing, out)
-    print(f"{out}: extended XYZ, {packing.n} spheres")
+    out = args.output or default_output(args.path, args.format)
+    written = write(packing, out, args.format)
+    note = f", box scaled from L = {packing.box!r} to 1" if args.format == "calippso-jl" else ""
+    print(f"{', '.join(map(str, written))}: {FORMATS[args.format].description}, {packing.n} spheres{note}")
+    return 0
+
+
+def _import(args) -> int:
+    from ..errors import InputError, require
+    from ..formats import guess_format, read
+    from ..packing_io import write_packing
+
+    fmt = args.format or guess_format(args.path)
+    require(args.tolerance >= 0, "--tolerance", args.tolerance, "must be >= 0")
+    options = {}
+    if args.box is not None:
+        if fmt != "calippso-jl":
+            raise InputError(f"--box={args.box!r}: only the calippso-jl format needs a box side")
+        require(args.box > 0, "--box", args.box, "must be > 0")
+        options["box"] = args.box
+    if args.frame is not None:
+        if fmt != "gsd":
+            raise InputError(f"--frame={args.frame!r}: only the gsd format has frames")
+        options["frame"] = args.frame
+    packing = read(args.path, fmt, tolerance=args.tolerance, **options)
+    write_packing(args.output, packing, tolerance=args.tolerance)
+    note = packing.metadata["source"].get("note")
+    print(f"{args.output}: {packing.n} spheres from {fmt} {args.path}, d={packing.dim}, L={packing.box:.10g}, "
+          f"phi={packing.phi:.10f}" + (f" ({note})" if note else ""))
     return 0

@@ -1,0 +1,87 @@
+"""Packing file formats of other codes, read and written (one module per format; docs/formats.md).
+
+Every reader returns a :class:`~spherejam.packing.Packing` that passed the same checks as our HDF5 reader
+(:func:`spherejam.packing_io.validated_packing`: shapes, finiteness, centres inside the box, no overlap beyond the
+tolerance), or raises :class:`~spherejam.errors.PackingFileError` naming the file and the problem. Every writer
+writes through :mod:`spherejam.atomic`, so a failure leaves nothing at the output path.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..errors import InputError
+
+if TYPE_CHECKING:  # the CLI imports this module to list the formats; the engines' numba stays unloaded
+    from ..packing import Packing
+
+
+@dataclass(frozen=True)
+class Format:
+    """One file format: the module holding its ``read``/``write``, its file suffix and a one-line description."""
+
+    name: str
+    module: str
+    suffix: str
+    description: str
+    readable: bool = True
+
+
+FORMATS = {f.name: f for f in (
+    Format("xyz", "spherejam.packing_io", ".xyz", "extended XYZ (OVITO, ASE), radius per particle", readable=False),
+    Format("packing-generation", f"{__name__}.packing_generation", "",
+           "packing-generation (C++): folder with packing.xyzd, packing.nfo, generation.conf"),
+    Format("calippso-jl", f"{__name__}.calippso_jl", ".dat", "CALiPPSO.jl example input: d, N, diameter, centres"),
+    Format("gsd", f"{__name__}.gsd", ".gsd", "GSD (HOOMD-blue, OVITO), one frame"),
+    Format("lammps", f"{__name__}.lammps", ".data", "LAMMPS data file, atom style sphere"),
+)}
+READABLE = tuple(name for name, f in FORMATS.items() if f.readable)
+
+_SUFFIXES = {".xyzd": "packing-generation", ".nfo": "packing-generation", ".conf": "packing-generation",
+             ".dat": "calippso-jl", ".gsd": "gsd", ".data": "lammps", ".lmp": "lammps"}
+
+
+def guess_format(path: str | os.PathLike) -> str:
+    """The readable format of ``path`` from its suffix (a folder is a packing-generation file set)."""
+    path = Path(path)
+    if path.is_dir():
+        return "packing-generation"
+    name = _SUFFIXES.get(path.suffix.lower())
+    if name is None:
+        raise InputError(f"{path}: cannot tell the format from the suffix {path.suffix!r}; give --format "
+                         f"({', '.join(READABLE)})")
+    return name
+
+
+def _module(name: str):
+    if name not in FORMATS:
+        raise InputError(f"format={name!r}: must be one of {', '.join(FORMATS)}")
+    return importlib.import_module(FORMATS[name].module)
+
+
+def read(path: str | os.PathLike, fmt: str | None = None, **options) -> Packing:
+    """Read and validate a packing in format ``fmt`` (default: from the suffix). ``options``: ``tolerance``
+    (relative overlap, default 1e-10; None skips the overlap check), ``box`` for calippso-jl, ``frame`` for gsd."""
+    fmt = fmt or guess_format(path)
+    if not FORMATS.get(fmt, FORMATS["xyz"]).readable:
+        raise InputError(f"format={fmt!r}: can be written, not read; readable: {', '.join(READABLE)}")
+    return _module(fmt).read(path, **options)
+
+
+def write(packing: Packing, path: str | os.PathLike, fmt: str) -> list[Path]:
+    """Write ``packing`` in format ``fmt``; returns the files written."""
+    module = _module(fmt)
+    out = module.export_xyz(packing, path) if fmt == "xyz" else module.write(packing, path)
+    return out if isinstance(out, list) else [out]
+
+
+def default_output(path: str | os.PathLike, fmt: str) -> Path:
+    """Default output of exporting ``path``: its suffix replaced by the format's (packing-generation: the folder
+    ``<stem>-packing-generation``)."""
+    path = Path(path)
+    f = FORMATS[fmt]
+    return path.with_name(f"{path.stem}-{fmt}") if not f.suffix else path.with_suffix(f.suffix)

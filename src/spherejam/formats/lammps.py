@@ -1,0 +1,139 @@
+"""LAMMPS data files, atom style ``sphere`` (DEM codes): ``id type diameter density x y z`` per atom, 3D.
+
+The writer gives every sphere type 1 and mass density 1 (a hard-sphere packing has no mass scale) and writes
+numbers with 17 significant digits, so a round trip is exact. The reader accepts any LAMMPS data file whose
+``Atoms`` section is in the sphere style (optionally with image flags), in an orthogonal cubic box; other sections
+(Velocities, ...) are skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import atomic_output
+from ..errors import PackingFileError
+from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..packing_io import validated_packing
+
+#: Section headers of a LAMMPS data file (a line holding only one of these starts a section).
+SECTIONS = ("Atoms", "Velocities", "Masses", "Ellipsoids", "Lines", "Triangles", "Bodies", "Bonds", "Angles",
+            "Dihedrals", "Impropers", "Pair Coeffs", "PairIJ Coeffs", "Bond Coeffs", "Angle Coeffs",
+            "Dihedral Coeffs", "Improper Coeffs")
+_BOUNDS = re.compile(r"^\s*(\S+)\s+(\S+)\s+([xyz])lo\s+[xyz]hi\s*$")
+
+
+def _fail(path, problem: str):
+    raise PackingFileError(f"{path}: {problem}")
+
+
+def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE) -> Packing:
+    """Read a LAMMPS data file (atom style sphere) as a 3D packing."""
+    path = Path(path)
+    if not path.is_file():
+        _fail(path, "no such file")
+    try:
+        lines = path.read_text().splitlines()
+    except UnicodeDecodeError:
+        _fail(path, "not a text file")
+    n = None
+    bounds: dict[str, tuple[float, float]] = {}
+    k = 1  # line 1 is a comment by definition
+    while k < len(lines):
+        text = lines[k].split("#")[0].strip()
+        if text in SECTIONS:
+            break
+        if text.endswith(" atoms"):
+            try:
+                n = int(text.split()[0])
+            except ValueError:
+                _fail(path, f"line {k + 1}: {lines[k].strip()!r} does not give the number of atoms")
+        elif text.endswith("xy xz yz"):
+            try:
+                tilted = any(float(v) != 0 for v in text.split()[:3])
+            except ValueError:
+                _fail(path, f"line {k + 1}: {lines[k].strip()!r} is not three tilt factors")
+            if tilted:
+                _fail(path, f"line {k + 1}: a triclinic box; spherejam packings are cubes")
+        elif _BOUNDS.match(text):
+            m = _BOUNDS.match(text)
+            try:
+                bounds[m.group(3)] = (float(m.group(1)), float(m.group(2)))
+            except ValueError:
+                _fail(path, f"line {k + 1}: {lines[k].strip()!r} is not two numbers")
+        k += 1
+    if n is None:
+        _fail(path, "no 'N atoms' line in the header")
+    if sorted(bounds) != ["x", "y", "z"]:
+        _fail(path, "the header needs 'xlo xhi', 'ylo yhi' and 'zlo zhi' lines")
+    sides = {a: hi - lo for a, (lo, hi) in bounds.items()}
+    if not sides["x"] == sides["y"] == sides["z"]:
+        _fail(path, f"box sides {[sides[a] for a in 'xyz']}: spherejam packings are cubes (all sides equal)")
+    box = sides["x"]
+    origin = np.array([bounds[a][0] for a in "xyz"])
+    atoms = None
+    while k < len(lines):
+        header, _, comment = lines[k].partition("#")
+        if header.strip() == "Atoms":
+            style = comment.strip()
+            if style and style.split()[0] != "sphere":
+                _fail(path, f"line {k + 1}: atom style '{style}', expected 'sphere' (id type diameter density x y z)")
+            atoms = _atoms(path, lines, k + 1, n)
+            break
+        k += 1
+    if atoms is None:
+        _fail(path, "no Atoms section")
+    order = np.argsort(atoms[:, 0], kind="stable")
+    atoms = atoms[order]
+    ids = atoms[:, 0]
+    if len(np.unique(ids)) != n:
+        _fail(path, "atom IDs are not unique")
+    positions = atoms[:, 4:7] - origin
+    diameters = atoms[:, 2]
+    source = {"format": "lammps", "files": [str(path)], "origin": origin.tolist()}
+    return validated_packing(path, positions, diameters, box, {"algorithm": "imported", "source": source},
+                             tolerance)
+
+
+def _atoms(path: Path, lines: list[str], start: int, n: int) -> np.ndarray:
+    rows = []
+    k = start
+    while k < len(lines) and not lines[k].strip():
+        k += 1
+    while k < len(lines) and len(rows) < n:
+        text = lines[k].split("#")[0].strip()
+        if not text:
+            break
+        fields = text.split()
+        if len(fields) not in (7, 10):
+            _fail(path, f"line {k + 1}: {len(fields)} columns, expected 7 (id type diameter density x y z) or 10 "
+                        "(with image flags)")
+        try:
+            rows.append([float(v) for v in fields[:7]])
+        except ValueError:
+            _fail(path, f"line {k + 1}: {text[:60]!r} is not a row of numbers")
+        k += 1
+    if len(rows) != n:
+        _fail(path, f"the Atoms section holds {len(rows)} atoms but the header says {n}")
+    return np.array(rows)
+
+
+def write(packing: Packing, path: str | os.PathLike) -> Path:
+    """Write a LAMMPS data file, atom style sphere, box [0, L)^3."""
+    path = Path(path)
+    if packing.dim != 3:
+        raise PackingFileError(f"{path}: LAMMPS sphere data files hold 3D packings, this one has d={packing.dim}")
+    L = packing.box
+    alg = packing.metadata.get("algorithm", "unknown")
+    lines = [f"LAMMPS data file (atom_style sphere) written by spherejam; phi={packing.phi!r} algorithm={alg}", "",
+             f"{packing.n} atoms", "1 atom types", ""]
+    lines += [f"0.0 {L!r} {a}lo {a}hi" for a in "xyz"]
+    lines += ["", "Atoms # sphere", ""]
+    lines += [f"{i + 1} 1 {d!r} 1.0 {x!r} {y!r} {z!r}"
+              for i, ((x, y, z), d) in enumerate(zip(packing.positions.tolist(), packing.diameters.tolist()))]
+    with atomic_output(path, ".data") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    return path
