@@ -830,7 +830,8 @@ def run_calippso(
         progress.update(
             f"it {iteration}: sqrt(G)-1 {sqrt_gamma - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
             f"rows {len(pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
-            f"LP {sol.solve_time:.2f} s"
+            f"LP {sol.solve_time:.2f} s",
+            fields={"LP": iteration, "√Γ-1": sqrt_gamma - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
         )
         last = (rij, sigma2, pi, pj, sol, rattler)
         bound_hit = bool(np.any(~rattler)) and float(np.max(np.abs(sol.s[~rattler]))) >= (1.0 - 1e-9) * sb

@@ -115,6 +115,12 @@ class MLSController(Controller):
     def extra_row(self) -> dict[str, Any]:
         return {"stage": self.stage}
 
+    def progress_fields(self) -> dict[str, Any]:
+        final_k = 0  # the first k with gamma_0 / f^k <= the final rate, as after_window computes the rates
+        while self.initial_rate / self.decrease_factor**final_k > self.final_rate:
+            final_k += 1
+        return {"stage": self.stage, "γ": self.rate, "stages left": max(final_k - self.restarts, 0)}
+
     _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows",
               "stall_reference", "stall_count", "stalled_stages")
 

@@ -522,8 +522,11 @@ def run_fb(
         rho_out = _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim)
         iteration += 1
         history.add(iteration, rho_in, rho_out, elapsed())
-        progress.update(f"iteration {iteration}: phi_inner {phi_nominal * rho_in**dim:.6f}, "
-                        f"phi_outer {phi_nominal * rho_out**dim:.6f}")
+        phi_in, phi_out = phi_nominal * rho_in**dim, phi_nominal * rho_out**dim
+        progress.update(f"iteration {iteration}: phi_inner {phi_in:.6f}, phi_outer {phi_out:.6f}",
+                        fields={"iteration": iteration, "φ_in": phi_in, "φ_out": phi_out,
+                                "iterations/s": iteration / max(elapsed(), 1e-9)},
+                        bar=(phi_in / phi_out, "φ_in/φ_out"))
         if checkpoint is not None and time.perf_counter() - last_checkpoint >= checkpoint_interval:
             save_state()
             last_checkpoint = time.perf_counter()

@@ -37,6 +37,8 @@ from .checkpoint import load_checkpoint, save_checkpoint
 from .errors import InputError, PackingFileError, SimulationError, require
 from .neighbours import closest_pair
 from .packing import Packing, ball_volume
+from .progress import log_fraction
+from .progress import rate as rate_of
 from .runs import History, Progress, RunResult
 
 DEFAULT_TEMPERATURE = 0.2
@@ -367,6 +369,10 @@ class Controller:
     def extra_row(self) -> dict[str, Any]:
         return {}
 
+    def progress_fields(self) -> dict[str, Any]:
+        """What the live status line shows of the controller (the driver adds p, phi, collisions/s)."""
+        return {"γ": self.rate}
+
     def state(self) -> dict[str, Any]:
         return {"rate": self.rate}
 
@@ -454,7 +460,10 @@ def drive(packing: Packing, controller: Controller, *, algorithm: str, parameter
         progress.update(
             f"window {totals['windows']}: phi={phi:.6f} p={stats.pressure:.4g} rate={rate:.4g} "
             f"collisions={totals['collisions']:,} ({totals['collisions'] / max(wall, 1e-9):,.0f}/s)"
-            + (f" stop={stop}" if stop else "")
+            + (f" stop={stop}" if stop else ""),
+            fields={**controller.progress_fields(), "p": stats.pressure, "φ": phi,
+                    "collisions/s": rate_of(totals["collisions"], wall)},
+            bar=(log_fraction(stats.pressure, controller.p_max), "log p/log p_max"),
         )
         if ckpt is not None and (stop is None or stop == "max_wall_time") and (
             time.perf_counter() - last_ckpt >= checkpoint_interval or stop == "max_wall_time"

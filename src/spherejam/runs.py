@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from . import progress
 from .packing import Packing
 
 log = logging.getLogger("spherejam")
@@ -48,7 +49,8 @@ class RunResult:
 
 
 class Progress:
-    """Periodic one-line progress log (to the ``spherejam`` logger) at most every ``interval`` seconds."""
+    """Progress of a run: a log line (to the ``spherejam`` logger) at most every ``interval`` seconds, or, on a
+    terminal, the live status line of :mod:`spherejam.progress` fed with every update's ``fields`` and ``bar``."""
 
     def __init__(self, label: str, interval: float = 10.0):
         self.label = label
@@ -60,7 +62,15 @@ class Progress:
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
 
-    def update(self, message: str, force: bool = False) -> None:
+    def update(self, message: str, force: bool = False, fields: dict[str, Any] | None = None,
+               bar: tuple[float, str] | None = None) -> None:
+        """Report ``message``; ``fields`` (name -> value) and ``bar`` (fraction in [0, 1], caption) are what the
+        live status line shows. Updates without fields always go to the log."""
+        line = progress.current() if fields is not None else None
+        if line is not None:
+            line.show(self.label, self.elapsed, fields, bar)
+            if not force:
+                return
         now = time.perf_counter()
         if force or now - self._last >= self.interval:
             self._last = now

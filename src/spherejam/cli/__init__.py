@@ -15,6 +15,7 @@ import sys
 
 from .. import __version__
 from ..errors import InputError, PackingFileError, SpherejamError
+from ..progress import live_status
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
 COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls")
@@ -39,6 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}").register(sub)
+    for command in sub.choices.values():  # `spherejam mls ... --quiet` as well as `spherejam --quiet mls ...`
+        command.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                             help="no progress display or log lines, only warnings and errors")
     return parser
 
 
@@ -49,7 +53,8 @@ def main(argv: list[str] | None = None) -> int:
         level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s", stream=sys.stderr
     )
     try:
-        return int(args.func(args) or 0)
+        with live_status(enabled=not args.quiet):  # the live progress line, on a terminal only
+            return int(args.func(args) or 0)
     except (InputError, PackingFileError) as exc:
         sys.stderr.write(f"spherejam {args.command}: error: {exc}\n")
         return EXIT_BAD_INPUT
