@@ -274,7 +274,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")
     ap.add_argument("configs", nargs="+", help="config files, e.g. config/config.yaml config/paper.yaml")
     args = ap.parse_args(argv)
-    config = load_configs(*args.configs)
+    print_plan(load_configs(*args.configs))
+    return 0
+
+
+def print_plan(config: dict) -> None:
+    """Print :func:`plan` of ``config`` as a table (``spherejam cost`` and this module's entry point)."""
     table = plan(config)
     print(f"N = {config['n']}; first attempts; expected = model CPU time, requested = sum of SLURM time limits")
     print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
@@ -282,7 +287,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{label:10s} {row['jobs']:7d} {row['cpu_hours']:15.1f} {row['requested_hours']:12.1f}")
     total = {k: sum(r[k] for r in table.values()) for k in ("jobs", "cpu_hours", "requested_hours")}
     print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
-    return 0
 
 
 def load_configs(*paths) -> dict:

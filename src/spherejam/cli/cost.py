@@ -1,0 +1,42 @@
+"""``spherejam cost``: expected jobs, CPU-hours and SLURM time limits of a workflow config, before you submit it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "cost", help="expected jobs, CPU-hours and time limits of a workflow config (docs/cluster.md)",
+        description="Print the cost model's jobs, expected CPU-hours and requested hours (sum of the SLURM time "
+        "limits, first attempts) per stage. Several configs are merged as Snakemake merges --configfile: "
+        "later files override earlier ones key by key.",
+    )
+    p.add_argument("configs", type=Path, nargs="+", metavar="CONFIG",
+                   help="config files, e.g. config/config.yaml config/paper.yaml")
+    p.set_defaults(func=_cost)
+
+
+def _cost(args) -> int:
+    import yaml
+
+    from ..cluster_resources import load_configs, print_plan
+    from ..errors import InputError
+
+    for path in args.configs:
+        if not path.is_file():
+            raise InputError(f"{path}: no such config file")
+        try:
+            data = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise InputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+        except UnicodeDecodeError:
+            raise InputError(f"{path}: not a text file") from None
+        if not isinstance(data, (dict, type(None))):
+            raise InputError(f"{path}: a config is a mapping of keys to values, this file holds a "
+                             f"{type(data).__name__}")
+    config = load_configs(*args.configs)
+    if "n" not in config:
+        raise InputError(f"config: no 'n' (spheres per packing) in {', '.join(map(str, args.configs))}")
+    print_plan(config)
+    return 0
