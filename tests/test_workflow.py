@@ -141,6 +141,50 @@ def test_browse_filters_and_exports(tiny_run, tmp_path):
     assert (tmp_path / "fig5.png").exists()
 
 
+def test_browse_one_packing(tiny_run, tmp_path, capsys):
+    """browse --packing: the dataset's values and the files of one packing, its MLS history plot, and a dataset
+    copied away from its results folder (what is there is listed, what is missing is said)."""
+    from spherejam.cli import main
+    from spherejam.dataset import open_dataset
+
+    results, _ = tiny_run
+    key = "ls/sigma0/rate0.5/r0"  # the validation grid's source packing
+    ds = open_dataset(results / "dataset.nc")
+    i = list(ds.key.values).index(key)
+    assert main(["browse", str(results / "dataset.nc"), "--packing", key, "--plot", "-o", str(tmp_path / "mls")]) == 0
+    out = capsys.readouterr().out
+    assert "phi_J " in out and f"{float(ds.phi_J.values[i]):.10g}" in out
+    assert "mls_collisions " in out and "closest jamming density (MLS)" in out
+    assert out.count("validation-grid run") == 2
+    for name in ("poisson.h5", "initial.h5", "jammed.h5", "structure.json", "calippso.json"):
+        assert str(results / "packings" / key / name) in out
+    assert str(results / "logs" / "mls" / f"{key}.log") in out and "missing" not in out
+    assert (tmp_path / "mls.png").stat().st_size > 10000
+
+    # archived elsewhere with one packing's folder, one file lost
+    archive = tmp_path / "archive"
+    shutil.copytree(results / "packings" / key, archive / "packings" / key)
+    (archive / "packings" / key / "calippso.h5").unlink()
+    shutil.copy(results / "dataset.nc", archive / "dataset.nc")
+    assert main(["browse", str(archive / "dataset.nc"), "--packing", key]) == 0
+    out = capsys.readouterr().out
+    assert str(archive / "packings" / key / "jammed.h5") in out and "missing: calippso.h5" in out
+
+    # the dataset alone, from a machine where its results folder does not exist
+    moved = ds.copy()
+    moved.attrs["config"] = moved.attrs["config"].replace(str(results), str(tmp_path / "gone"))
+    moved.to_netcdf(tmp_path / "alone.nc", engine="h5netcdf")
+    assert main(["browse", str(tmp_path / "alone.nc"), "--packing", key]) == 0
+    out = capsys.readouterr().out
+    assert "packing files: not found" in out and str(tmp_path / "gone" / "packings" / key) in out
+    assert f"{float(ds.phi_J.values[i]):.10g}" in out  # the dataset's own values are all still there
+    assert main(["browse", str(tmp_path / "alone.nc"), "--packing", key, "--plot"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "jammed.h5" in err[0]
+    assert main(["browse", str(results / "dataset.nc"), "--packing", "ls/sigma9/rate1/r0"]) == 2
+    assert "no such packing" in capsys.readouterr().err
+
+
 def test_killed_job_rerun_completes(tiny_run, tmp_path):
     """A workflow killed mid-job (SIGKILL, as on a node crash) leaves no partial output; the rerun completes."""
     import os

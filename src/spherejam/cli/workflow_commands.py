@@ -41,6 +41,10 @@ def register(sub) -> None:
     p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
     p.add_argument("-o", "--output", type=Path, help="figure output stem (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
+    p.add_argument("--packing", metavar="KEY",
+                   help="everything the dataset holds for one packing (key as ls/sigma0.1/rate0.5/r0) and its files")
+    p.add_argument("--plot", action="store_true",
+                   help="with --packing: draw its MLS history (p and phi against collisions) to -o STEM.png/.pdf")
     p.set_defaults(func=_browse)
 
 
@@ -103,6 +107,8 @@ def _browse(args) -> int:
     from ..errors import InputError
 
     ds = open_dataset(args.dataset)
+    if args.packing is not None or args.plot:
+        return _browse_packing(args, ds)
     cfg = json.loads(ds.attrs["config"])
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
     print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}, {ds.sizes['packing']} packings, "
@@ -151,5 +157,29 @@ def _browse(args) -> int:
         from ..figures import draw, save_figure
 
         for path in save_figure(draw(args.figure, ds), args.output or Path(args.figure)):
+            print(path)
+    return 0
+
+
+def _browse_packing(args, ds) -> int:
+    from ..errors import InputError
+    from ..packing_record import describe, locate, mls_history_figure
+
+    if args.packing is None:
+        raise InputError("--plot: needs --packing KEY (the packing whose MLS history to draw)")
+    for line in describe(args.dataset, ds, args.packing):
+        print(line)
+    if args.plot:
+        from ..figures import save_figure
+
+        found = locate(args.dataset, ds, args.packing)
+        if "jammed.h5" not in found.files:
+            where = ", ".join(str(s) for s in found.searched) if found.results is None else str(
+                found.results / "packings" / args.packing)
+            raise InputError(f"--plot: the MLS output jammed.h5 of {args.packing} is not there (looked in {where}); "
+                             "copy the packing files next to the dataset")
+        stem = args.output or Path(f"mls_{args.packing.replace('/', '_')}")
+        fig = mls_history_figure(found.files["jammed.h5"], title=f"MLS history of {args.packing}")
+        for path in save_figure(fig, stem):
             print(path)
     return 0
