@@ -180,3 +180,24 @@ def test_load_configs_merges_later_files_over_earlier_recursively(tmp_path):
     (tmp_path / "b.yaml").write_text("n: 10000\nmls: {max_collisions_per_particle: null}\n")
     merged = cr.load_configs(tmp_path / "a.yaml", tmp_path / "b.yaml")
     assert merged == {"n": 10000, "mls": {"final_rate": 1e-4, "max_collisions_per_particle": None}}
+
+
+def test_cost_command_prints_the_module_table(tmp_path, capsys):
+    from spherejam.cli import main
+
+    root = Path(__file__).resolve().parents[1] / "config"
+    configs = [str(root / "config.yaml"), str(root / "paper.yaml")]
+    assert main(["cost", *configs]) == 0
+    table = capsys.readouterr().out
+    assert cr.main(configs) == 0  # `python -m spherejam.cluster_resources` prints the same
+    assert capsys.readouterr().out == table
+    plan = cr.plan(cr.load_configs(*configs))
+    total_jobs = sum(row["jobs"] for row in plan.values())
+    assert table.startswith("N = 10000") and table.splitlines()[-1].split()[:2] == ["total", str(total_jobs)]
+    (tmp_path / "bad.yaml").write_text("n: [\n")
+    (tmp_path / "list.yaml").write_text("- 1\n")
+    for bad, needle in (("missing.yaml", "no such config file"), ("bad.yaml", "not valid YAML"),
+                        ("list.yaml", "mapping")):
+        assert main(["cost", str(tmp_path / bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and bad in err[0] and needle in err[0]
