@@ -253,6 +253,8 @@ def test_export_every_format_then_import_through_the_cli(tmp_path, capsys, touch
         out = tmp_path / f"{name}.back.h5"
         assert main(["import", str(tmp_path / name), "-o", str(out)]) == 0
         assert np.array_equal(read_packing(out).positions, touching.positions)
-    _one_line_error(capsys, ["import", str(src), "-o", str(tmp_path / "x.h5")], tmp_path / "x.h5", ["suffix"])
+    _one_line_error(capsys, ["import", str(src), "-o", str(tmp_path / "x.h5")], tmp_path / "x.h5", ["already"])
+    _one_line_error(capsys, ["import", str(tmp_path / "p.xyz"), "-o", str(tmp_path / "z.h5")], tmp_path / "z.h5",
+                    ["p.xyz", "--format"])
     _one_line_error(capsys, ["import", str(tmp_path / "p.data"), "--box", "2", "-o", str(tmp_path / "y.h5")],
                     tmp_path / "y.h5", ["--box"])

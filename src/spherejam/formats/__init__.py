@@ -51,6 +51,8 @@ def guess_format(path: str | os.PathLike) -> str:
     if path.is_dir():
         return "packing-generation"
     name = _SUFFIXES.get(path.suffix.lower())
+    if path.suffix.lower() == ".h5":
+        raise InputError(f"{path}: already a spherejam packing file (HDF5); `spherejam check` validates it")
     if name is None:
         raise InputError(f"{path}: cannot tell the format from the suffix {path.suffix!r}; give --format "
                          f"({', '.join(READABLE)})")
@@ -67,9 +69,10 @@ def read(path: str | os.PathLike, fmt: str | None = None, **options) -> Packing:
     """Read and validate a packing in format ``fmt`` (default: from the suffix). ``options``: ``tolerance``
     (relative overlap, default 1e-10; None skips the overlap check), ``box`` for calippso-jl, ``frame`` for gsd."""
     fmt = fmt or guess_format(path)
-    if not FORMATS.get(fmt, FORMATS["xyz"]).readable:
+    module = _module(fmt)
+    if not FORMATS[fmt].readable:
         raise InputError(f"format={fmt!r}: can be written, not read; readable: {', '.join(READABLE)}")
-    return _module(fmt).read(path, **options)
+    return module.read(path, **options)
 
 
 def write(packing: Packing, path: str | os.PathLike, fmt: str) -> list[Path]:
