@@ -133,8 +133,9 @@ def write(packing: Packing, folder: str | os.PathLike) -> list[Path]:
     folder = Path(folder)
     if packing.dim != 3:
         raise PackingFileError(f"{folder}: packing-generation holds 3D packings, this one has d={packing.dim}")
-    if folder.exists() and not folder.is_dir():
-        raise PackingFileError(f"{folder}: the packing-generation output is a folder (it holds three files)")
+    if (folder.exists() and not folder.is_dir()) or folder.suffix in (".xyzd", ".nfo", ".conf"):
+        raise PackingFileError(f"{folder}: the packing-generation output is a folder (it holds packing.xyzd, "
+                               "packing.nfo and generation.conf, the names the code expects)")
     L = packing.box
     porosity = 1.0 - packing.phi
     rate = packing.metadata.get("parameters", {}).get("rate", DEFAULT_CONTRACTION_RATE)
