@@ -99,6 +99,9 @@ def test_tiny_end_to_end(tiny_run):
     for key in ("config", "config_hash", "git_commit", "package_versions", "created"):
         assert ds.attrs[key]
     assert ds.phi_J.attrs["units"] == "1" and ds.phi_J.attrs["long_name"]
+    # CALiPPSO's "phi" describes calippso_phi only, not the generated packing's phi
+    assert ds.phi.attrs["long_name"] == "packing fraction of the generated packing"
+    assert ds.calippso_phi.attrs["long_name"].startswith("CALiPPSO:")
     # the files behind one entry are valid packings whose phi matches the dataset
     key = str(ds.key.values[0])
     jammed = read_packing(results / "packings" / key / "jammed.h5")

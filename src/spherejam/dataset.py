@@ -257,14 +257,13 @@ def _describe(ds, extra: dict[str, tuple[str, str]]) -> None:
 
 
 def _structure_variables() -> dict[str, tuple[str, str]]:
-    out: dict[str, tuple[str, str]] = {}
-    for module, attr in (("structure", "VARIABLES"), ("calippso", "VARIABLES")):
-        try:
-            mod = __import__(f"spherejam.{module}", fromlist=[attr])
-            out.update(getattr(mod, attr, {}))
-        except ImportError:
-            pass
-    return out
+    from . import calippso, structure
+
+    # CALiPPSO's names are prefixed in the dataset; unprefixed they would shadow the generated packing's ``phi``.
+    return {
+        **structure.VARIABLES,
+        **{f"calippso_{k}": (f"CALiPPSO: {name}", units) for k, (name, units) in calippso.VARIABLES.items()},
+    }
 
 
 def build_dataset(manifest_path: str | os.PathLike):
