@@ -18,6 +18,7 @@ from ..errors import InputError, PackingFileError, SpherejamError
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
 COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls")
+COMMAND_MODULES += ("render",)  # OVITO picture of a packing (optional extra spherejam[render])
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
