@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_output
+from .dataset import dataset_config
 from .errors import InputError
 from .tables import FAST_DEFAULTS, TABLE2_ROWS, completed_phi_J, compute_tables
 
@@ -23,6 +24,8 @@ SIGMA_MARKERS = "osD^v<>ph*"
 #: Densest packing of equal spheres (FCC/HCP), pi / (3 sqrt 2), and the tunnelled crystals' 2/3 of it (Fig. 6).
 PHI_HCP = math.pi / (3 * math.sqrt(2))
 PHI_TUNNELLED = 2 * PHI_HCP / 3
+#: Panels (a)-(d) of Figs. 2 and 7: LS phi, LS phi_J, FB phi, FB phi_J (Table 2 rows in the paper's panel order).
+PANEL_ROWS = tuple(TABLE2_ROWS[i] for i in (0, 2, 1, 3))
 
 
 def _plt():
@@ -67,19 +70,11 @@ def _values(ds, var):
 
 
 def _fast_limits(ds):
-    from .dataset import dataset_config
-
     return {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
 
 
 def _gcp_monodisperse(ds):
-    from .dataset import dataset_config
-
     return float(dataset_config(ds).get("gcp_monodisperse", 0.65))
-
-
-#: Panels (a)-(d) of Figs. 2 and 7: LS phi, LS phi_J, FB phi, FB phi_J (Table 2 rows in the paper's panel order).
-PANEL_ROWS = tuple(TABLE2_ROWS[i] for i in (0, 2, 1, 3))
 
 
 def _edge_mark(ax, y, colour, left: bool):
@@ -107,7 +102,7 @@ def fig2(ds):
     sigmas = _sigmas(ds)
     col, mk = _colours(sigmas), _markers(sigmas)
     gcp0 = _gcp_monodisperse(ds)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey=True)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey="col")
     for ax, (label, protocol, var, _), letter in zip(axes.flat, PANEL_ROWS, "abcd"):
         for s in sigmas:
             m = _sel(ds, protocol, s)
@@ -130,7 +125,6 @@ def fig2(ds):
     axes[1, 0].set_ylabel("packing density φ")
     for ax in axes[:, 1]:
         ax.set_ylabel("closest jamming density φ$_J$")
-        ax.yaxis.set_tick_params(labelleft=True)
     axes[0, 0].legend(fontsize=8)
     fig.tight_layout()
     return fig
@@ -372,7 +366,7 @@ def fig7(ds):
     t2 = compute_tables(ds)["table2"]
     sigmas = _sigmas(ds)
     col, mk = _colours(sigmas), _markers(sigmas)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey=True)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey="col")
     for ax, (label, protocol, var, _), letter in zip(axes.flat, PANEL_ROWS, "abcd"):
         for s in sigmas:
             m = _sel(ds, protocol, s)
@@ -394,7 +388,6 @@ def fig7(ds):
     axes[1, 0].set_ylabel("packing density φ")
     for ax in axes[:, 1]:
         ax.set_ylabel("closest jamming density φ$_J$")
-        ax.yaxis.set_tick_params(labelleft=True)
     axes[0, 0].legend(fontsize=8)
     fig.tight_layout()
     return fig
