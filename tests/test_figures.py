@@ -171,11 +171,11 @@ def test_fig7_linear_sqrt_gamma_black_fits_and_sigma_zero(ds):
 
 
 def test_paper_layout_draws(tmp_path):
-    """Seven sigmas as in the paper: every figure draws and writes both formats."""
+    """Seven sigmas as in the paper: every figure draws (PDF output is tested in test_tables)."""
     ds = synthetic_dataset(sigmas=(0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3), n_rates=8)
     for name in ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7"):
-        out = figures.save_figure(figures.draw(name, ds), tmp_path / name)
-        assert all(p.stat().st_size > 1000 for p in out)
+        out = figures.save_figure(figures.draw(name, ds), tmp_path / name, formats=("png",))
+        assert out[0].stat().st_size > 1000
 
 
 # Fig. 1: OVITO --------------------------------------------------------------------------------------------------

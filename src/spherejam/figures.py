@@ -178,11 +178,11 @@ def fig3(ds):
 
 
 def _bin_edges(v):
-    """Histogram bins of one sigma's own band: numpy's 'auto' rule, 3-30 bins; one value gets one narrow bin."""
+    """Histogram bins of one sigma's own band: numpy's 'auto' rule, at most 30 bins; one value gets one narrow bin."""
     if v.max() - v.min() < 1e-9:
         return np.array([v.min() - 5e-5, v.max() + 5e-5])
     edges = np.histogram_bin_edges(v, bins="auto")
-    n = int(np.clip(len(edges) - 1, 3, 30))
+    n = int(np.clip(len(edges) - 1, 1, 30))
     return np.linspace(v.min(), v.max(), n + 1)
 
 
@@ -215,6 +215,8 @@ def fig4(ds):
         ax.set_xlabel("closest jamming density φ$_J$")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("number of packings")
+    axes[0].set_ylim(bottom=0)
+    axes[0].yaxis.get_major_locator().set_params(integer=True)
     fig.tight_layout()
     return fig
 
@@ -260,7 +262,7 @@ def fig5(ds):
                     markeredgecolor="0.5")
     ax.set_xlabel("standard deviation σ of the log-normal diameter distribution")
     ax.set_ylabel("packing density")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, ncol=2, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -274,72 +276,64 @@ def _envelope(x, y):
 
 
 def fig6(ds):
-    """The jamming phase diagram (the paper's schematic Fig. 6) from this run's LS packings.
+    """The jamming phase diagram (the paper's schematic Fig. 6) drawn from this run's packings.
 
-    For (a) sigma = 0 and (b) the largest sigma: phi_J against 1/gamma (grey points); the typical closest-jamming
-    band, [phi_LT, phi_RCP] for fast compressions and the spread of phi_J for slower ones (red lines), narrowing
-    towards phi_GCP (the LS Table 2 fit extrapolated to gamma -> 0, dotted); untypical jammed configurations above
-    and below it (grey), bounded by phi_max (phi_HCP for sigma = 0, dashed; phi_GCP otherwise) and phi_L.
+    For (a) sigma = 0 and (b) the largest sigma: phi_J against generation time, the LS 1/gamma, with FB's 1/gamma
+    divided by the ratio of the two fast-compression limits so that both protocols' fast regions coincide (left of
+    the grey line). Red lines bound the typical closest jamming densities: [phi_LT, phi_RCP] (Table 4) for fast
+    compressions, the spread of phi_J over both protocols for slower ones, and beyond the data (schematic) a
+    convergence to phi_GCP (sigma > 0, dotted) or the crystallisation of equal spheres towards phi_HCP (dashed).
+    Grey: untypical jammed configurations, bounded by phi_max (phi_HCP for sigma = 0, phi_GCP otherwise) and phi_L.
     """
     plt = _plt()
-    tables = compute_tables(ds)
-    t2, t4 = tables["table2"], tables["table4"]
+    t4 = compute_tables(ds)["table4"]
     sigmas = _sigmas(ds)
     shown = sorted({sigmas[-1], *([0.0] if 0.0 in sigmas else [])})
-    limit = _fast_limits(ds)["ls_max_inverse_rate"]
+    fast = _fast_limits(ds)
+    limit = fast["ls_max_inverse_rate"]
+    shift = fast["fb_max_inverse_rate"] / limit  # FB's 1/gamma on the LS scale
     phi_j = completed_phi_J(ds)
+    time = np.where(ds.protocol.values == "fb", ds.inverse_rate.values / shift, ds.inverse_rate.values)
     fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.6), squeeze=False)
-    for ax, s in zip(axes[0], shown):
-        m = _sel(ds, "ls", s)
+    for ax, s, letter in zip(axes[0], shown, "ab"):
+        m = _sel(ds, sigma=s) & np.isfinite(phi_j)
         row = t4[np.isclose(t4.sigma, s)]
         if not m.any() or not len(row) or not np.isfinite(row.phi_LT.iloc[0]):
-            _no_data(ax, f"no fast LS packings at σ = {s:g}")
+            _no_data(ax, f"no fast compressions at σ = {s:g}")
             continue
         lt, rcp, gcp = (float(row[c].iloc[0]) for c in ("phi_LT", "phi_RCP", "phi_GCP"))
-        x, y = ds.inverse_rate.values[m], phi_j[m]
-        xs, ymin, ymax = _envelope(x, y)
+        xs, ymin, ymax = _envelope(time[m], phi_j[m])
         lo_x, hi_x = xs.min() / 2, xs.max() * 30
-        # the band's boundaries: flat at [phi_LT, phi_RCP] while compressions are fast, then the measured spread
+        # the band: flat at [phi_LT, phi_RCP] while compressions are fast, then the measured spread of phi_J
         slow = xs >= limit
         bx = np.concatenate([[lo_x, limit], xs[slow]])
         blo = np.concatenate([[lt, lt], ymin[slow]])
         bhi = np.concatenate([[rcp, rcp], np.maximum(ymax[slow], rcp)])
         monodisperse = s == 0
-        top = max(bhi.max(), gcp if np.isfinite(gcp) else -1) + 0.006
-        bottom = min(lt, np.nanmin(y)) - 0.006
+        top = max(bhi.max(), gcp) + 0.006
+        bottom = min(lt, phi_j[m].min()) - 0.006
         phi_max = top if monodisperse else gcp  # phi_HCP lies far above the plot
-        # extrapolation to infinitely slow compression: the LS, densified fit (sigma > 0), or crystallisation
+        # schematic continuation to infinitely slow compression (log-linear in 1/gamma), the spread closing
         ex = np.geomspace(bx[-1], hi_x, 50)
-        fit = t2[(t2.curve == "LS, densified") & np.isclose(t2.sigma, s)] if len(t2) else t2
-        closing = np.linspace(1, 0, ex.size)  # the band's spread closes as compressions get slower
-        if monodisperse:
-            ey = np.interp(np.log(ex), [np.log(ex[0]), np.log(hi_x)], [bhi[-1], top])
-            style, label = "--", "crystallisation (schematic)"
-        elif len(fit) and np.isfinite(fit.c0.iloc[0]):
-            r = fit.iloc[0]
-            g = np.sqrt(1 / ex)
-            ey = r.c0 + r.c1 * g + r.c2 * g**2 + r.c3 * g**3
-            style, label = ":", "LS fit (Table 2) → φ$_{GCP}$"
-        else:
-            ey = None
-        if ey is not None:
-            ey_lo = ey - (bhi[-1] - blo[-1]) * closing
-            ax.plot(ex, ey, style, color="tab:red", lw=1.5, label=label)
-            ax.plot(ex, ey_lo, style, color="tab:red", lw=1.5)
-            fx, flo, fhi = np.concatenate([bx, ex]), np.concatenate([blo, ey_lo]), np.concatenate([bhi, ey])
-        else:
-            fx, flo, fhi = bx, blo, bhi
+        w = np.log(ex / ex[0]) / np.log(hi_x / ex[0])
+        end, style, label = ((top, "--", "crystallisation (schematic)") if monodisperse
+                             else (gcp, ":", "→ φ$_{GCP}$ (schematic)"))
+        ehi = bhi[-1] + (end - bhi[-1]) * w
+        elo = blo[-1] + (end - blo[-1]) * w if not monodisperse else ehi - (bhi[-1] - blo[-1]) * (1 - w)
+        fx, flo, fhi = np.concatenate([bx, ex]), np.concatenate([blo, elo]), np.concatenate([bhi, ehi])
         ax.fill_between(fx, flo, fhi, color="tab:red", alpha=0.12, lw=0, label="typical")
         ax.fill_between(fx, fhi, np.maximum(fhi, phi_max), color="0.85", lw=0, label="untypical")
         ax.fill_between(fx, bottom, flo, color="0.85", lw=0)
         ax.plot(bx, blo, "-", color="tab:red", lw=2)
         ax.plot(bx, bhi, "-", color="tab:red", lw=2)
-        ax.plot(x, y, ".", color="0.35", ms=4, label="φ$_J$ of LS packings")
+        ax.plot(ex, ehi, style, color="tab:red", lw=1.5, label=label)
+        ax.plot(ex, elo, style, color="tab:red", lw=1.5)
+        for protocol, marker, name in (("ls", ".", "LS"), ("fb", "x", f"FB (1/γ ÷ {shift:g})")):
+            mm = m & (ds.protocol.values == protocol)
+            ax.plot(time[mm], phi_j[mm], marker, color="0.3", ms=5, ls="none", label=f"φ$_J$, {name}")
         ax.axvline(limit, color="0.5", lw=1)
-        for value, name, style in ((lt, "φ$_{LT}$", "-"), (rcp, "φ$_{RCP}$", "-"), (gcp, "φ$_{GCP}$", "-")):
-            if not np.isfinite(value):
-                continue
-            ax.axhline(value, color="k", lw=0.6, ls=style)
+        for value, name in ((lt, "φ$_{LT}$"), (rcp, "φ$_{RCP}$"), (gcp, "φ$_{GCP}$")):
+            ax.axhline(value, color="k", lw=0.6)
             ax.annotate(f"{name} = {value:.4f}", (1.0, value), xycoords=("axes fraction", "data"), xytext=(3, 0),
                         textcoords="offset points", va="center", fontsize=7)
         phi_l = f"φ$_L$ ≥ {PHI_TUNNELLED:.3f} (tunnelled crystals)" if monodisperse else "φ$_L$ (not measured)"
@@ -350,9 +344,8 @@ def fig6(ds):
         ax.set_xscale("log")
         ax.set_xlim(lo_x, hi_x)
         ax.set_ylim(bottom, top)
-        ax.set_xlabel("generation time: inverse compression rate 1/γ (LS)")
-        ax.set_title(f"({'ab'[list(shown).index(s)]}) σ = {s:g}{' (monodisperse)' if monodisperse else ''}",
-                     loc="left", fontsize=10)
+        ax.set_xlabel("generation time: inverse compression rate 1/γ (LS scale)")
+        ax.set_title(f"({letter}) σ = {s:g}{' (monodisperse)' if monodisperse else ''}", loc="left", fontsize=10)
         ax.legend(fontsize=7, loc="upper left")
     axes[0, 0].set_ylabel("closest jamming density φ$_J$")
     fig.tight_layout()
