@@ -242,7 +242,7 @@ def fig5(ds):
     plt = _plt()
     t4 = compute_tables(ds)["table4"]
     paper = paper_table4()
-    fig, ax = plt.subplots(figsize=(6.5, 4.8))
+    fig, ax = plt.subplots(figsize=(6.5, 6.0))
     fg_sigmas = farr_groot_sigmas(ds)
     ax.plot(fg_sigmas, [_farr_groot(float(s)) for s in fg_sigmas], "s", color="tab:blue", mfc="none", ms=7,
             label="φ$_{RCP}$, Farr–Groot (our reconstruction)", gid="farr_groot")
@@ -262,7 +262,7 @@ def fig5(ds):
                     markeredgecolor="0.5")
     ax.set_xlabel("standard deviation σ of the log-normal diameter distribution")
     ax.set_ylabel("packing density")
-    ax.legend(fontsize=7, ncol=2, loc="lower right")
+    ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))  # below: no data hidden
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
