@@ -29,3 +29,4 @@ rule all:
         DATASET,
         TABLES,
         FIGURES,
+        FIG1,

@@ -28,7 +28,7 @@ GRID_RUN = "ls/sigma{sigma}/rate{rate}/r{replica}/f{factor}_g{g0}_gf{gf}"
 DATASET = f"{R}/dataset.nc"
 TABLE_NAMES = ["table2", "table3", "table4"]
 TABLES = expand(f"{R}/tables/{{name}}.{{ext}}", name=TABLE_NAMES, ext=["csv", "md", "tex"])
-FIGURE_NAMES = ["fig2", "fig3", "fig4", "fig5", "fig7", "structure", "forces"]
+FIGURE_NAMES = ["fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces"]
 FIGURES = expand(f"{R}/figures/{{name}}.{{ext}}", name=FIGURE_NAMES, ext=["png", "pdf"])
 
 

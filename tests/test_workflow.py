@@ -109,7 +109,7 @@ def test_tiny_end_to_end(tiny_run):
     for name in ("table2", "table3", "table4"):
         for ext in ("csv", "md", "tex"):
             assert (results / "tables" / f"{name}.{ext}").stat().st_size > 0
-    for name in ("fig2", "fig3", "fig4", "fig5", "fig7", "structure", "forces"):
+    for name in ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces"):
         for ext in ("png", "pdf"):
             assert (results / "figures" / f"{name}.{ext}").stat().st_size > 1000
     # no temporary or checkpoint files are left behind

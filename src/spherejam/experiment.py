@@ -111,6 +111,12 @@ class Experiment:
             for k in range(self.replicas)
         ]
 
+    def figure1_run(self) -> Run:
+        """The run whose closest jammed configuration Fig. 1 shows: the largest sigma, generated (as in the paper)
+        by the force-biased algorithm (LS if there are no FB runs) at its fastest rate, replica 0."""
+        runs = [r for r in self.runs("fb") if r.replica == 0] or [r for r in self.runs("ls") if r.replica == 0]
+        return max(runs, key=lambda r: (r.sigma, r.rate))
+
     def grid_runs(self) -> list[GridRun]:
         if not self.grid_enabled:
             return []

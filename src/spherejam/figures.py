@@ -1,25 +1,31 @@
-"""The paper's Figures 2-5 and 7, plus structure and contact-force figures, drawn from the results dataset alone.
+"""The paper's Figures 2-7, plus structure and contact-force figures, drawn from the results dataset alone.
 
 Each ``fig*`` function takes the dataset and returns a matplotlib Figure; :func:`save_figure` writes PNG and PDF.
+Fig. 1 (a rendered packing) needs OVITO and lives in :mod:`spherejam.render`. Colours mark sigma and so do the
+symbols (:data:`SIGMA_MARKERS`), as in the paper.
 """
 
 from __future__ import annotations
 
 import math
 import os
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from .atomic import atomic_output
+from .dataset import dataset_config
 from .errors import InputError
-from .tables import TABLE2_ROWS, completed_phi_J, compute_tables
+from .tables import FAST_DEFAULTS, TABLE2_ROWS, completed_phi_J, compute_tables
 
-#: Table 4 of the paper (N = 10^4) where legible, for comparison in Fig. 5. phi_GCP is the mean of the four
-#: Table 2 rows of the paper (see shared/reference/algorithms.md Section 8.3); sigma = 0 takes 0.65.
-PAPER_SIGMA = np.array([0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3])
-PAPER_RCP = np.array([0.6405, 0.6421, 0.6440, 0.6486, 0.6542, 0.6600, 0.6676])
-PAPER_GCP = np.array([0.65, 0.652625, 0.65535, 0.66045, 0.66540, 0.671575, 0.67850])
+#: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
+SIGMA_MARKERS = "osD^v<>ph*"
+#: Densest packing of equal spheres (FCC/HCP), pi / (3 sqrt 2), and the tunnelled crystals' 2/3 of it (Fig. 6).
+PHI_HCP = math.pi / (3 * math.sqrt(2))
+PHI_TUNNELLED = 2 * PHI_HCP / 3
+#: Panels (a)-(d) of Figs. 2 and 7: LS phi, LS phi_J, FB phi, FB phi_J (Table 2 rows in the paper's panel order).
+PANEL_ROWS = tuple(TABLE2_ROWS[i] for i in (0, 2, 1, 3))
 
 
 def _plt():
@@ -31,11 +37,19 @@ def _plt():
     return plt
 
 
+def _sigmas(ds):
+    return sorted(set(ds.sigma.values.tolist()))
+
+
 def _colours(sigmas):
     plt = _plt()
     cmap = plt.get_cmap("viridis")
     smax = max(max(sigmas), 1e-9)
     return {s: cmap(0.9 * s / smax) for s in sigmas}
+
+
+def _markers(sigmas):
+    return {s: SIGMA_MARKERS[k % len(SIGMA_MARKERS)] for k, s in enumerate(sorted(sigmas))}
 
 
 def _no_data(ax, what="no data"):
@@ -51,149 +65,323 @@ def _sel(ds, protocol=None, sigma=None):
     return mask
 
 
+def _values(ds, var):
+    return completed_phi_J(ds) if var == "phi_J" else ds[var].values.astype(float)
+
+
+def _fast_limits(ds):
+    return {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+
+
+def _gcp_monodisperse(ds):
+    return float(dataset_config(ds).get("gcp_monodisperse", 0.65))
+
+
+def _edge_mark(ax, y, colour, left: bool):
+    """A short horizontal line at the left or right edge of the panel (the paper's phi_RCP and phi_GCP marks)."""
+    ax.axhline(y, xmin=0 if left else 0.94, xmax=0.06 if left else 1, color=colour, lw=2.5, solid_capstyle="butt")
+
+
+def _gcp_of_row(t2, label, sigma, gcp0):
+    """phi_GCP of one Table 2 row (curve ``label``) at ``sigma``; sigma = 0 takes the config's monodisperse value."""
+    if sigma == 0:
+        return gcp0
+    row = t2.loc[(t2.curve == label) & np.isclose(t2.sigma, sigma), "phi_gcp"] if len(t2) else []
+    return float(row.iloc[0]) if len(row) else math.nan
+
+
 def fig2(ds):
-    """phi and phi_J vs 1/gamma for LS and FB, with RCP (left) and GCP (right) marks."""
+    """phi and phi_J vs 1/gamma for LS and FB, points of each sigma joined by lines.
+
+    phi_RCP (Table 4) is marked at the left of the densified panels (b, d), and each panel's own Table 2 phi_GCP at
+    its right.
+    """
     plt = _plt()
     tables = compute_tables(ds)
     t2, t4 = tables["table2"], tables["table4"]
-    sigmas = sorted(set(ds.sigma.values.tolist()))
-    col = _colours(sigmas)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey=True)
-    panels = [("ls", "phi", "(a) LS, initial"), ("ls", "phi_J", "(b) LS, densified (MLS)"),
-              ("fb", "phi", "(c) FB, initial"), ("fb", "phi_J", "(d) FB, densified (MLS)")]
-    for ax, (protocol, var, title) in zip(axes.flat, panels):
-        label = f"{protocol.upper()}, {'initial' if var == 'phi' else 'densified'}"
+    sigmas = _sigmas(ds)
+    col, mk = _colours(sigmas), _markers(sigmas)
+    gcp0 = _gcp_monodisperse(ds)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey="col")
+    for ax, (label, protocol, var, _), letter in zip(axes.flat, PANEL_ROWS, "abcd"):
         for s in sigmas:
             m = _sel(ds, protocol, s)
             if m.any() and var in ds:
-                y = completed_phi_J(ds) if var == "phi_J" else ds[var].values
-                ax.plot(ds.inverse_rate.values[m], y[m], "o", ms=4, color=col[s], label=f"σ = {s:g}")
-            rcp = t4.loc[np.isclose(t4.sigma, s), "phi_RCP"]
-            if len(rcp) and np.isfinite(rcp.iloc[0]):
-                ax.axhline(rcp.iloc[0], xmin=0, xmax=0.06, color=col[s], lw=2)
-            gcp = t2.loc[(t2.curve == label) & np.isclose(t2.sigma, s), "phi_gcp"]
-            gval = 0.65 if s == 0 else (gcp.iloc[0] if len(gcp) else math.nan)
-            if np.isfinite(gval):
-                ax.axhline(gval, xmin=0.94, xmax=1, color=col[s], lw=2)
+                order = np.argsort(ds.inverse_rate.values[m])
+                ax.plot(ds.inverse_rate.values[m][order], _values(ds, var)[m][order], "-", marker=mk[s], ms=4,
+                        lw=1, color=col[s], label=f"σ = {s:g}")
+            if var == "phi_J":
+                rcp = t4.loc[np.isclose(t4.sigma, s), "phi_RCP"]
+                if len(rcp) and np.isfinite(rcp.iloc[0]):
+                    _edge_mark(ax, rcp.iloc[0], col[s], left=True)
+            gcp = _gcp_of_row(t2, label, s, gcp0)
+            if np.isfinite(gcp):
+                _edge_mark(ax, gcp, col[s], left=False)
         ax.set_xscale("log")
-        ax.set_title(title, loc="left", fontsize=10)
+        ax.set_title(f"({letter}) {label}", loc="left", fontsize=10)
         ax.set_xlabel("inverse compression rate 1/γ")
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("packing fraction φ")
-    axes[1, 0].set_ylabel("packing fraction φ")
+    axes[0, 0].set_ylabel("packing density φ")
+    axes[1, 0].set_ylabel("packing density φ")
+    for ax in axes[:, 1]:
+        ax.set_ylabel("closest jamming density φ$_J$")
     axes[0, 0].legend(fontsize=8)
     fig.tight_layout()
     return fig
 
 
 def fig3(ds):
-    """phi_J of the validation grid vs 1/gamma, coloured by (a) decrease factor, (b) initial rate."""
+    """phi_J of the validation grid vs the true 1/gamma of its LS packings, coloured by (a) the decrease factor and
+    (b) the initial rate; one symbol per sigma."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
     if "grid_run" not in ds.dims:
         for ax in axes:
             _no_data(ax, "validation grid disabled in this experiment")
         return fig
-    markers = {s: m for s, m in zip(sorted(set(ds.grid_sigma.values.tolist())), "osD^v")}
+    from matplotlib.lines import Line2D
+
+    grid_sigmas = sorted(set(ds.grid_sigma.values.tolist()))
+    mk = _markers(grid_sigmas)
     grid_phi_j = ds.grid_phi_J.values.astype(float).copy()
     if "grid_completed" in ds:
         grid_phi_j[ds.grid_completed.values != 1] = np.nan  # cut MLS run: not a closest-jamming density
-    for ax, key, title in ((axes[0], "decrease_factor", "(a) decrease factor"),
-                           (axes[1], "initial_rate", "(b) initial rate")):
+    x = ds.grid_inverse_rate.values
+    ls_x = ds.inverse_rate.values[ds.protocol.values == "ls"] if "packing" in ds.dims else x
+    lo, hi = np.nanmin(np.concatenate([x, ls_x])), np.nanmax(np.concatenate([x, ls_x]))
+    n_rates = len(set(np.round(x, 12).tolist()))
+    for ax, key, title in ((axes[0], "decrease_factor", "(a) compression rate decrease factor"),
+                           (axes[1], "initial_rate", "(b) initial compression rate")):
         values = sorted(set(ds[key].values.tolist()))
         cmap = plt.get_cmap("plasma")
-        for k, v in enumerate(values):
-            for s, mk in markers.items():
+        colour = {v: cmap(0.85 * k / max(len(values) - 1, 1)) for k, v in enumerate(values)}
+        for v in values:
+            for s in grid_sigmas:
                 m = (ds[key].values == v) & np.isclose(ds.grid_sigma.values, s)
-                # a small horizontal offset per parameter keeps overlapping points visible
-                x = ds.grid_inverse_rate.values[m] * 1.06 ** (k - len(values) / 2)
-                colour = cmap(0.85 * k / max(len(values) - 1, 1))
-                ax.plot(x, grid_phi_j[m], mk, ms=5, mfc="none", color=colour, label=f"{v:g} (σ = {s:g})")
+                ax.plot(x[m], grid_phi_j[m], mk[s], ms=6, mfc="none", mew=1.3, color=colour[v], ls="none")
+        handles = [Line2D([], [], marker="s", ls="none", color=colour[v], label=f"{v:g}") for v in values]
+        handles += [Line2D([], [], marker=mk[s], ls="none", mfc="none", color="0.3", label=f"σ = {s:g}")
+                    for s in grid_sigmas]
+        ax.legend(handles=handles, fontsize=7, ncol=2, title=key.replace("_", " "), title_fontsize=7)
         ax.set_xscale("log")
+        ax.set_xlim(lo / 2, hi * 2)  # the experiment's LS range, so one can see where the grid's packings sit
         ax.set_xlabel("inverse compression rate 1/γ of the LS packing")
         ax.set_title(title, loc="left", fontsize=10)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
-    axes[0].set_ylabel("closest jamming density φ_J")
+    if n_rates < 2:
+        axes[1].text(0.02, 0.03, f"this grid has LS packings of one rate only (1/γ = {x[0]:g}),\n"
+                     "so it cannot show the fast/slow contrast of the paper", transform=axes[1].transAxes,
+                     fontsize=7, color="0.35", va="bottom")
+    axes[0].set_ylabel("closest jamming density φ$_J$")
     fig.tight_layout()
     return fig
+
+
+def _bin_edges(v):
+    """Histogram bins of one sigma's own band: numpy's 'auto' rule, at most 30 bins; one value gets one narrow bin."""
+    if v.max() - v.min() < 1e-9:
+        return np.array([v.min() - 5e-5, v.max() + 5e-5])
+    edges = np.histogram_bin_edges(v, bins="auto")
+    n = int(np.clip(len(edges) - 1, 1, 30))
+    return np.linspace(v.min(), v.max(), n + 1)
 
 
 def fig4(ds):
-    """Number distributions of phi_J for fast compressions, (a) LS and (b) FB."""
-    from .dataset import dataset_config
-
+    """Number distributions of phi_J for fast compressions, (a) LS and (b) FB; each sigma on its own bins, drawn as
+    symbols joined by lines."""
     plt = _plt()
-    fast = {"ls_max_inverse_rate": 5.0, "fb_max_inverse_rate": 1000.0, **dataset_config(ds).get("fast", {})}
-    sigmas = sorted(set(ds.sigma.values.tolist()))
-    col = _colours(sigmas)
+    fast = _fast_limits(ds)
+    sigmas = _sigmas(ds)
+    col, mk = _colours(sigmas), _markers(sigmas)
+    phi_j = completed_phi_J(ds)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, protocol, title in ((axes[0], "ls", "(a) LS, 1/γ < {:g}"), (axes[1], "fb", "(b) FB, 1/γ < {:g}")):
         limit = fast[f"{protocol}_max_inverse_rate"]
-        phi_j = completed_phi_J(ds)
-        values = [phi_j[_sel(ds, protocol, s) & (ds.inverse_rate.values < limit)] for s in sigmas]
-        allv = np.concatenate(values) if values else np.array([])
-        allv = allv[np.isfinite(allv)]
-        if len(allv) == 0:
-            _no_data(ax, "no fast compressions")
-        else:
-            bins = np.linspace(allv.min() - 1e-3, allv.max() + 1e-3, 30)
-            for s, v in zip(sigmas, values):
-                v = v[np.isfinite(v)]
-                if len(v):
-                    ax.hist(v, bins=bins, color=col[s], alpha=0.7, label=f"σ = {s:g} ({len(v)})")
+        drawn = 0
+        for s in sigmas:
+            v = phi_j[_sel(ds, protocol, s) & (ds.inverse_rate.values < limit)]
+            v = v[np.isfinite(v)]
+            if len(v) == 0:
+                continue
+            counts, edges = np.histogram(v, bins=_bin_edges(v))
+            centres = 0.5 * (edges[:-1] + edges[1:])
+            ax.plot(centres, counts, "-", marker=mk[s], ms=5, lw=1, color=col[s], label=f"σ = {s:g} (n = {len(v)})")
+            drawn += 1
+        if drawn:
             ax.legend(fontsize=8)
+        else:
+            _no_data(ax, "no fast compressions")
         ax.set_title(title.format(limit), loc="left", fontsize=10)
-        ax.set_xlabel("closest jamming density φ_J")
+        ax.set_xlabel("closest jamming density φ$_J$")
+        ax.grid(alpha=0.3)
     axes[0].set_ylabel("number of packings")
+    axes[0].set_ylim(bottom=0)
+    axes[0].yaxis.get_major_locator().set_params(integer=True)
     fig.tight_layout()
     return fig
 
 
+@lru_cache(maxsize=64)
+def _farr_groot(sigma: float) -> float:
+    from .farr_groot import phi_rcp_lognormal
+
+    return phi_rcp_lognormal(sigma)
+
+
+def farr_groot_sigmas(ds) -> np.ndarray:
+    """Where Fig. 5 shows the Farr-Groot phi_RCP: the paper's sigmas (0 ... 0.3) and this run's."""
+    from .paper_reference import TABLE34_SIGMAS
+
+    return np.array(sorted({round(float(s), 12) for s in (*TABLE34_SIGMAS, *_sigmas(ds))}))
+
+
 def fig5(ds):
-    """phi_LT, phi_RCP and phi_GCP vs sigma (Table 4), with the paper's N = 10^4 values."""
+    """phi_LT, phi_RCP and phi_GCP vs sigma (Table 4) with the Farr-Groot phi_RCP and the paper's Table 4."""
+    from .paper_reference import table4 as paper_table4
+
     plt = _plt()
     t4 = compute_tables(ds)["table4"]
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    ax.plot(t4.sigma, t4.phi_LT, "o", color="tab:red", mfc="none", label="φ_LT (this run)")
-    ax.plot(t4.sigma, t4.phi_RCP, "+", color="m", ms=9, label="φ_RCP (this run)")
-    ax.plot(t4.sigma, t4.phi_GCP, "x", color="c", ms=8, label="φ_GCP (this run)")
-    ax.plot(PAPER_SIGMA, PAPER_RCP, "--", color="m", lw=1, label="φ_RCP, paper (N = 10⁴)")
-    ax.plot(PAPER_SIGMA, PAPER_GCP, ":", color="c", lw=1, label="φ_GCP, paper (N = 10⁴)")
-    ax.set_xlabel("relative standard deviation σ of the diameters")
-    ax.set_ylabel("packing fraction")
-    ax.legend(fontsize=8)
+    paper = paper_table4()
+    fig, ax = plt.subplots(figsize=(6.5, 6.0))
+    fg_sigmas = farr_groot_sigmas(ds)
+    ax.plot(fg_sigmas, [_farr_groot(float(s)) for s in fg_sigmas], "s", color="tab:blue", mfc="none", ms=7,
+            label="φ$_{RCP}$, Farr–Groot (our reconstruction)", gid="farr_groot")
+    styles = (("phi_LT", "o", "tab:red", "φ$_{LT}$"), ("phi_RCP", "+", "m", "φ$_{RCP}$"),
+              ("phi_GCP", "x", "c", "φ$_{GCP}$"))
+    for col, marker, colour, name in styles:
+        ax.plot(t4.sigma, t4[col], marker, color=colour, ms=9, mew=1.6, mfc="none", ls="none",
+                label=f"{name}, this run", gid=f"run_{col}")
+    for col, marker, colour, name in styles:
+        printed = paper[col].notna() & ~paper[f"{col}_derived"]
+        derived = paper[col].notna() & paper[f"{col}_derived"]
+        ax.plot(paper.index[printed], paper[col][printed], marker, color=colour, ms=5, alpha=0.45, mew=1,
+                mfc="none", ls="none", label=f"{name}, paper (N = 10⁴)", gid=f"paper_{col}")
+        if derived.any():
+            ax.plot(paper.index[derived], paper[col][derived], marker, color=colour, ms=5, alpha=0.45, mew=1,
+                    mfc="none", ls="none", label=f"{name}, paper: mean of its Table 2", gid=f"paper_{col}_derived",
+                    markeredgecolor="0.5")
+    ax.set_xlabel("standard deviation σ of the log-normal diameter distribution")
+    ax.set_ylabel("packing density")
+    ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))  # below: no data hidden
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
 
 
+def _envelope(x, y):
+    """Per distinct x: min and max of y (NaN left out), sorted by x."""
+    ok = np.isfinite(x) & np.isfinite(y)
+    xs = np.unique(x[ok])
+    return xs, np.array([y[ok][x[ok] == v].min() for v in xs]), np.array([y[ok][x[ok] == v].max() for v in xs])
+
+
+def fig6(ds):
+    """The jamming phase diagram (the paper's schematic Fig. 6) drawn from this run's packings.
+
+    For (a) sigma = 0 and (b) the largest sigma: phi_J against generation time, the LS 1/gamma, with FB's 1/gamma
+    divided by the ratio of the two fast-compression limits so that both protocols' fast regions coincide (left of
+    the grey line). Red lines bound the typical closest jamming densities: [phi_LT, phi_RCP] (Table 4) for fast
+    compressions, the spread of phi_J over both protocols for slower ones, and beyond the data (schematic) a
+    convergence to phi_GCP (sigma > 0, dotted) or the crystallisation of equal spheres towards phi_HCP (dashed).
+    Grey: untypical jammed configurations, bounded by phi_max (phi_HCP for sigma = 0, phi_GCP otherwise) and phi_L.
+    """
+    plt = _plt()
+    t4 = compute_tables(ds)["table4"]
+    sigmas = _sigmas(ds)
+    shown = sorted({sigmas[-1], *([0.0] if 0.0 in sigmas else [])})
+    fast = _fast_limits(ds)
+    limit = fast["ls_max_inverse_rate"]
+    shift = fast["fb_max_inverse_rate"] / limit  # FB's 1/gamma on the LS scale
+    phi_j = completed_phi_J(ds)
+    time = np.where(ds.protocol.values == "fb", ds.inverse_rate.values / shift, ds.inverse_rate.values)
+    fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.6), squeeze=False)
+    for ax, s, letter in zip(axes[0], shown, "ab"):
+        m = _sel(ds, sigma=s) & np.isfinite(phi_j)
+        row = t4[np.isclose(t4.sigma, s)]
+        if not m.any() or not len(row) or not np.isfinite(row.phi_LT.iloc[0]):
+            _no_data(ax, f"no fast compressions at σ = {s:g}")
+            continue
+        lt, rcp, gcp = (float(row[c].iloc[0]) for c in ("phi_LT", "phi_RCP", "phi_GCP"))
+        xs, ymin, ymax = _envelope(time[m], phi_j[m])
+        lo_x, hi_x = xs.min() / 2, xs.max() * 30
+        # the band: flat at [phi_LT, phi_RCP] while compressions are fast, then the measured spread of phi_J
+        slow = xs >= limit
+        bx = np.concatenate([[lo_x, limit], xs[slow]])
+        blo = np.concatenate([[lt, lt], ymin[slow]])
+        bhi = np.concatenate([[rcp, rcp], np.maximum(ymax[slow], rcp)])
+        monodisperse = s == 0
+        top = max(bhi.max(), gcp) + 0.006
+        bottom = min(lt, phi_j[m].min()) - 0.006
+        phi_max = top if monodisperse else gcp  # phi_HCP lies far above the plot
+        # schematic continuation to infinitely slow compression (log-linear in 1/gamma), the spread closing
+        ex = np.geomspace(bx[-1], hi_x, 50)
+        w = np.log(ex / ex[0]) / np.log(hi_x / ex[0])
+        end, style, label = ((top, "--", "crystallisation (schematic)") if monodisperse
+                             else (gcp, ":", "→ φ$_{GCP}$ (schematic)"))
+        ehi = bhi[-1] + (end - bhi[-1]) * w
+        elo = blo[-1] + (end - blo[-1]) * w if not monodisperse else ehi - (bhi[-1] - blo[-1]) * (1 - w)
+        fx, flo, fhi = np.concatenate([bx, ex]), np.concatenate([blo, elo]), np.concatenate([bhi, ehi])
+        ax.fill_between(fx, flo, fhi, color="tab:red", alpha=0.12, lw=0, label="typical")
+        ax.fill_between(fx, fhi, np.maximum(fhi, phi_max), color="0.85", lw=0, label="untypical")
+        ax.fill_between(fx, bottom, flo, color="0.85", lw=0)
+        ax.plot(bx, blo, "-", color="tab:red", lw=2)
+        ax.plot(bx, bhi, "-", color="tab:red", lw=2)
+        ax.plot(ex, ehi, style, color="tab:red", lw=1.5, label=label)
+        ax.plot(ex, elo, style, color="tab:red", lw=1.5)
+        for protocol, marker, name in (("ls", ".", "LS"), ("fb", "x", f"FB (1/γ ÷ {shift:g})")):
+            mm = m & (ds.protocol.values == protocol)
+            ax.plot(time[mm], phi_j[mm], marker, color="0.3", ms=5, ls="none", label=f"φ$_J$, {name}")
+        ax.axvline(limit, color="0.5", lw=1)
+        for value, name in ((lt, "φ$_{LT}$"), (rcp, "φ$_{RCP}$"), (gcp, "φ$_{GCP}$")):
+            ax.axhline(value, color="k", lw=0.6)
+            ax.annotate(f"{name} = {value:.4f}", (1.0, value), xycoords=("axes fraction", "data"), xytext=(3, 0),
+                        textcoords="offset points", va="center", fontsize=7)
+        phi_l = f"φ$_L$ ≥ {PHI_TUNNELLED:.3f} (tunnelled crystals)" if monodisperse else "φ$_L$ (not measured)"
+        ax.annotate(f"↓ {phi_l}", (0.02, 0.02), xycoords="axes fraction", fontsize=7)
+        if monodisperse:
+            ax.annotate(f"↑ φ$_{{max}}$ = φ$_{{HCP}}$ = {PHI_HCP:.4f}", (0.98, 0.97), xycoords="axes fraction",
+                        fontsize=7, ha="right", va="top")
+        ax.set_xscale("log")
+        ax.set_xlim(lo_x, hi_x)
+        ax.set_ylim(bottom, top)
+        ax.set_xlabel("generation time: inverse compression rate 1/γ (LS scale)")
+        ax.set_title(f"({letter}) σ = {s:g}{' (monodisperse)' if monodisperse else ''}", loc="left", fontsize=10)
+        ax.legend(fontsize=7, loc="upper left")
+    axes[0, 0].set_ylabel("closest jamming density φ$_J$")
+    fig.tight_layout()
+    return fig
+
+
 def fig7(ds):
-    """phi and phi_J vs sqrt(gamma) with the Table 2 cubic fits extrapolated to gamma = 0."""
+    """phi and phi_J vs sqrt(gamma) (linear axis) with the Table 2 cubic fits in black, extrapolated to gamma = 0;
+    phi_GCP marked at the left edge."""
     plt = _plt()
     t2 = compute_tables(ds)["table2"]
-    sigmas = [s for s in sorted(set(ds.sigma.values.tolist())) if s > 0]
-    col = _colours(sorted(set(ds.sigma.values.tolist())))
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey=True)
-    for ax, (label, protocol, var, _) in zip(axes.flat, TABLE2_ROWS):
+    sigmas = _sigmas(ds)
+    col, mk = _colours(sigmas), _markers(sigmas)
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8), sharey="col")
+    for ax, (label, protocol, var, _), letter in zip(axes.flat, PANEL_ROWS, "abcd"):
         for s in sigmas:
             m = _sel(ds, protocol, s)
-            y = completed_phi_J(ds) if var == "phi_J" else ds[var].values
-            ax.plot(np.sqrt(ds.rate.values[m]), y[m], "o", ms=3, color=col[s], label=f"σ = {s:g}")
-            row = t2[(t2.curve == label) & np.isclose(t2.sigma, s)]
+            if not m.any():
+                continue
+            ax.plot(np.sqrt(ds.rate.values[m]), _values(ds, var)[m], mk[s], ms=4, mfc="none", color=col[s],
+                    label=f"σ = {s:g}")
+            row = t2[(t2.curve == label) & np.isclose(t2.sigma, s)] if len(t2) else t2
             if len(row) and np.isfinite(row.phi_gcp.iloc[0]):
                 r = row.iloc[0]
                 x = np.linspace(0, math.sqrt(1.0 / r.min_inverse_rate), 100)
-                ax.plot(x, r.c0 + r.c1 * x + r.c2 * x**2 + r.c3 * x**3, "-", color=col[s], lw=1)
-                ax.plot([0], [r.phi_gcp], "s", color=col[s])
-        ax.set_title(label, loc="left", fontsize=10)
+                ax.plot(x, r.c0 + r.c1 * x + r.c2 * x**2 + r.c3 * x**3, "-", color="k", lw=1, zorder=1)
+                _edge_mark(ax, r.phi_gcp, col[s], left=True)
+        ax.set_xlim(left=0)
+        ax.set_title(f"({letter}) {label}", loc="left", fontsize=10)
         ax.set_xlabel("√γ")
-        ax.set_xscale("symlog", linthresh=1e-2)
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("packing fraction φ")
-    axes[1, 0].set_ylabel("packing fraction φ")
-    if sigmas:
-        axes[0, 0].legend(fontsize=8)
+    axes[0, 0].set_ylabel("packing density φ")
+    axes[1, 0].set_ylabel("packing density φ")
+    for ax in axes[:, 1]:
+        ax.set_ylabel("closest jamming density φ$_J$")
+    axes[0, 0].legend(fontsize=8)
     fig.tight_layout()
     return fig
 
@@ -225,7 +413,7 @@ def structure(ds):
             ax.legend(fontsize=7)
         else:
             _no_data(ax, f"{var} not in dataset")
-        ax.set_xlabel("φ_J")
+        ax.set_xlabel("φ$_J$")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     fig.suptitle("Structure of MLS packings, σ = 0")
@@ -264,8 +452,8 @@ def forces(ds):
     return fig
 
 
-FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig7": fig7, "structure": structure,
-           "forces": forces}
+FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6, "fig7": fig7,
+           "structure": structure, "forces": forces}
 
 
 def draw(name: str, ds):

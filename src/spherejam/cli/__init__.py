@@ -18,8 +18,7 @@ from ..errors import InputError, PackingFileError, SpherejamError
 from ..progress import live_status
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
-COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls",
-                   "cost")
+COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls", "cost", "render")
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1

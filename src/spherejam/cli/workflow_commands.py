@@ -24,7 +24,7 @@ def register(sub) -> None:
     p.set_defaults(func=_tables)
 
     p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
-    p.add_argument("name", help="fig2, fig3, fig4, fig5, fig7, structure or forces")
+    p.add_argument("name", help="fig2, fig3, fig4, fig5, fig6, fig7, structure or forces")
     p.add_argument("dataset", type=Path)
     p.add_argument("-o", "--output", type=Path, required=True, help="output stem (writes STEM.png and STEM.pdf)")
     p.set_defaults(func=_figure)
