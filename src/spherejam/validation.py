@@ -102,7 +102,8 @@ FB_RATE = Bound(FB_RATE_MIN, FB_RATE_MAX, hi_open=True)
 P_MAX = Bound(1.0, P_MAX_MAX, lo_open=True)
 SIGMA = Bound(0.0, 1.0)
 UNIT_OPEN = Bound(0.0, 1.0, lo_open=True, hi_open=True)
-SECONDS = Bound(0.0, None, lo_open=True)  # wall times and intervals: > 0 everywhere
+SECONDS = Bound(0.0, None, lo_open=True)  # wall-time limits: > 0 (0 would stop before the first step)
+INTERVAL = Bound(0.0, None)  # checkpoint and progress intervals: >= 0 seconds, 0 = at every window or iteration
 
 #: Limits by config field (also the names of the matching CLI options' values).
 FIELDS: dict[str, Bound] = {
@@ -149,13 +150,17 @@ def arg(field: str):
     return FIELDS[field].arg
 
 
-def check_mls(initial_rate: float, decrease_factor: float, final_rate: float, where: str = "") -> None:
-    """MLS consistency: final rate <= initial rate, and the last stage's rate (>= final_rate/f) still ends."""
+def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
+              names: tuple[str, str, str] = ("mls.initial_rate", "mls.decrease_factor", "mls.final_rate")) -> None:
+    """MLS consistency: final rate <= initial rate, and the last stage's rate (>= final_rate/f) still ends.
+
+    ``names`` are how the three values are called where they came from (config fields or CLI options)."""
+    g0, f, gf = names
     if final_rate > initial_rate:
-        raise InputError(f"{where}final_rate={final_rate!r}: must be <= initial_rate ({initial_rate!r})")
+        raise InputError(f"{gf}={final_rate!r}: must be <= {g0} ({initial_rate!r})")
     if final_rate / decrease_factor < LS_RATE_MIN:
-        raise InputError(f"{where}decrease_factor={decrease_factor!r}: with final_rate {final_rate!r} the last "
-                         f"stage may run at {final_rate / decrease_factor:.3g} < {LS_RATE_MIN:g}, which never jams")
+        raise InputError(f"{f}={decrease_factor!r}: with {gf} {final_rate!r} the last stage may run at gamma = "
+                         f"{final_rate / decrease_factor:.3g} < {LS_RATE_MIN:g}, which never jams")
 
 
 # --- the experiment config ---------------------------------------------------------------------------------------
@@ -180,7 +185,7 @@ def check_config(config: Any) -> dict:
             bound.check(path, value)
     mls = config.get("mls") or {}
     if all(k in mls for k in ("initial_rate", "decrease_factor", "final_rate")):
-        check_mls(mls["initial_rate"], mls["decrease_factor"], mls["final_rate"], "mls.")
+        check_mls(mls["initial_rate"], mls["decrease_factor"], mls["final_rate"])
     grid = config.get("validation_grid") or {}
     if grid.get("enabled", False):
         sigmas = {round(float(s), 12) for s in config["sigmas"]}
@@ -190,7 +195,8 @@ def check_config(config: Any) -> dict:
         for g0 in grid.get("initial_rates", []):
             for f in grid.get("decrease_factors", []):
                 for gf in grid.get("final_rates", []):
-                    check_mls(g0, f, gf, "validation_grid.")
+                    check_mls(g0, f, gf, ("validation_grid.initial_rates", "validation_grid.decrease_factors",
+                                          "validation_grid.final_rates"))
     from .experiment import PROTOCOLS, rate_grid
 
     total = 0

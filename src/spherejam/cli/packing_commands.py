@@ -5,17 +5,20 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from . import EXIT_FAILED, finite_float, int_at_least, seed_int
+from ..output_paths import check_outputs
+from ..validation import FIELDS, OVERLAP_TOLERANCE
+from . import EXIT_FAILED, seed_int
 
 
 def register(sub) -> None:
     p = sub.add_parser("seed", help="make a Poisson packing (uniform centres, log-normal diameters)")
-    p.add_argument("--n", type=int_at_least(2), required=True, help="number of spheres N (>= 2)")
-    p.add_argument("--sigma", type=finite_float, default=0.0, help="relative std of the diameters (default 0)")
+    p.add_argument("--n", type=FIELDS["n"].arg, required=True, help="number of spheres N (2 ... 10^7)")
+    p.add_argument("--sigma", type=FIELDS["sigmas[]"].arg, default=0.0,
+                   help="relative std of the diameters, 0 ... 1 (default 0)")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     p.add_argument("--dim", type=int, default=3, choices=(2, 3, 4, 5), help="dimension d (default 3)")
     p.add_argument(
-        "--phi-nominal", type=finite_float, default=0.6,
+        "--phi-nominal", type=FIELDS["phi_nominal"].arg, default=0.6,
         help="packing fraction of the mean-1 nominal diameters; fixes the box side (default 0.6)",
     )
     p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
@@ -28,7 +31,8 @@ def register(sub) -> None:
 
     p = sub.add_parser("check", help="validate a packing file: format, box, and overlaps")
     p.add_argument("path", type=Path)
-    p.add_argument("--tolerance", type=finite_float, default=1e-10, help="relative overlap tolerance (1e-10)")
+    p.add_argument("--tolerance", type=OVERLAP_TOLERANCE.arg, default=1e-10,
+                   help="relative overlap tolerance, 0 ... 1 (1e-10)")
     p.set_defaults(func=_check)
 
     p = sub.add_parser("export", help="convert a packing file (extended XYZ for OVITO)")
@@ -42,6 +46,7 @@ def _seed(args) -> int:
     from ..packing_io import write_packing
     from ..seeding import poisson_packing
 
+    check_outputs({"-o/--output": args.output})
     packing = poisson_packing(args.n, args.sigma, args.seed, phi_nominal=args.phi_nominal, dim=args.dim)
     write_packing(args.output, packing)
     print(f"{args.output}: N={packing.n} d={packing.dim} sigma={args.sigma:g} seed={args.seed} phi={packing.phi:.3e}")
@@ -107,8 +112,9 @@ def _check(args) -> int:
 def _export(args) -> int:
     from ..packing_io import export_xyz, read_packing
 
-    packing = read_packing(args.path)
     out = args.output or args.path.with_suffix(".xyz")
+    check_outputs({"-o/--output" if args.output else "the default output": out}, inputs={"path": args.path})
+    packing = read_packing(args.path)
     export_xyz(packing, out)
     print(f"{out}: extended XYZ, {packing.n} spheres")
     return 0

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import InputError, PackingFileError
+from ..output_paths import check_output_dir, check_outputs, figure_stem
 from . import finite_float
 
 
@@ -26,7 +28,8 @@ def register(sub) -> None:
     p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
     p.add_argument("name", help="fig2, fig3, fig4, fig5, fig7, structure or forces")
     p.add_argument("dataset", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help="output stem (writes STEM.png and STEM.pdf)")
+    p.add_argument("-o", "--output", type=Path, required=True,
+                   help="output stem (writes STEM.png and STEM.pdf); a folder (DIR/) writes DIR/NAME.png and .pdf")
     p.set_defaults(func=_figure)
 
     p = sub.add_parser("browse", help="summarise, filter and export an archived results dataset")
@@ -39,7 +42,7 @@ def register(sub) -> None:
     p.add_argument("--grid", action="store_true", help="show the validation-grid runs instead")
     p.add_argument("--csv", type=Path, help="export the selection as CSV")
     p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
-    p.add_argument("-o", "--output", type=Path, help="figure output stem (default: ./<figure>)")
+    p.add_argument("-o", "--output", type=Path, help="figure output stem or folder (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
     p.set_defaults(func=_browse)
 
@@ -48,12 +51,14 @@ def _manifest(args) -> int:
     import json
 
     from ..dataset import write_manifest
-    from ..errors import InputError
 
+    check_outputs({"-o/--output": args.output})
     try:
         config = json.loads(args.config_json)
     except json.JSONDecodeError as exc:
         raise InputError(f"--config-json: not valid JSON ({exc})") from None
+    if not isinstance(config, dict):
+        raise InputError(f"--config-json: a JSON {type(config).__name__}, expected an object of config keys")
     write_manifest(config, args.output)
     print(f"{args.output}: experiment with {len(config.get('sigmas', []))} sigmas, N = {config.get('n')}")
     return 0
@@ -62,6 +67,7 @@ def _manifest(args) -> int:
 def _dataset(args) -> int:
     from ..dataset import build_dataset, write_dataset
 
+    check_outputs({"-o/--output": args.output}, inputs={"manifest": args.manifest})
     ds = build_dataset(args.manifest)
     write_dataset(ds, args.output)
     print(f"{args.output}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
@@ -71,21 +77,45 @@ def _dataset(args) -> int:
 
 def _tables(args) -> int:
     from ..dataset import open_dataset
-    from ..tables import write_tables
+    from ..tables import TABLE_FILES, write_tables
 
-    for path in write_tables(open_dataset(args.dataset), args.outdir):
+    check_output_dir("--outdir", args.outdir, inputs={"dataset": args.dataset}, files=TABLE_FILES)
+    ds = open_dataset(args.dataset)
+    try:
+        paths = write_tables(ds, args.outdir)
+    except KeyError as exc:
+        raise PackingFileError(f"{args.dataset}: no variable {exc} (not a complete spherejam dataset)") from None
+    for path in paths:
         print(path)
     return 0
 
 
 def _figure(args) -> int:
     from ..dataset import open_dataset
-    from ..figures import draw, save_figure
+    from ..figures import FIGURES, draw, save_figure
 
+    if args.name not in FIGURES:
+        raise InputError(f"figure={args.name!r}: must be one of {', '.join(FIGURES)}")
+    stem = _check_figure(args.output, args.name, args.dataset, "-o/--output")
     ds = open_dataset(args.dataset)
-    for path in save_figure(draw(args.name, ds), args.output):
+    for path in save_figure(_draw(draw, args.name, ds, args.dataset), stem):
         print(path)
     return 0
+
+
+def _check_figure(output, name: str, dataset: Path, option: str) -> Path:
+    """The figure's stem (a folder gets NAME inside it), with STEM.png and STEM.pdf checked as outputs."""
+    stem = figure_stem(output, name)
+    check_outputs({f"{option} ({ext})": stem.with_name(f"{stem.name}.{ext}") for ext in ("png", "pdf")},
+                  inputs={"dataset": dataset})
+    return stem
+
+
+def _draw(draw, name: str, ds, dataset: Path):
+    try:
+        return draw(name, ds)
+    except KeyError as exc:
+        raise PackingFileError(f"{dataset}: no variable {exc} (not a complete spherejam dataset)") from None
 
 
 DEFAULT_COLUMNS = ("phi", "phi_J", "pressure_J", "mls_collisions", "mls_wall_time", "z_nonrattler",
@@ -100,8 +130,19 @@ def _browse(args) -> int:
     import pandas as pd
 
     from ..dataset import open_dataset
-    from ..errors import InputError
 
+    check_outputs({"--csv": args.csv}, inputs={"dataset": args.dataset})
+    stem = None
+    if args.figure:
+        from ..figures import FIGURES
+
+        if args.figure not in FIGURES:
+            raise InputError(f"--figure={args.figure!r}: must be one of {', '.join(FIGURES)}")
+        stem = _check_figure(args.output or Path(args.figure), args.figure, args.dataset, "-o/--output")
+        if args.csv and args.csv.resolve() in (stem.with_name(f"{stem.name}.{e}").resolve() for e in ("png", "pdf")):
+            raise InputError(f"--csv={str(args.csv)!r}: is also a figure output")
+    elif args.output:
+        raise InputError("-o/--output: only with --figure")
     ds = open_dataset(args.dataset)
     cfg = json.loads(ds.attrs["config"])
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
@@ -150,6 +191,6 @@ def _browse(args) -> int:
     if args.figure:
         from ..figures import draw, save_figure
 
-        for path in save_figure(draw(args.figure, ds), args.output or Path(args.figure)):
+        for path in save_figure(_draw(draw, args.figure, ds, args.dataset), stem):
             print(path)
     return 0
