@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_output
-from .errors import PackingFileError
+from .errors import InputError, PackingFileError
 from .experiment import Experiment, GridRun, Run, config_hash
 from .packing_io import FORMAT, dumps
 from .provenance import provenance
@@ -287,7 +287,10 @@ def build_dataset(manifest_path: str | os.PathLike):
                                "write one with `spherejam manifest`)")
     from .validation import check_config
 
-    config = check_config(manifest["config"])
+    try:
+        config = check_config(manifest["config"])
+    except InputError as exc:
+        raise PackingFileError(f"{manifest_path}: config {exc}") from None
     exp = Experiment(config)
 
     runs, rows = collect_runs(exp)

@@ -6,8 +6,9 @@ anything, with every file it will write and every file it reads, each under the 
     check_outputs({"-o/--output": args.output, "--summary": args.summary},
                   inputs={"path": args.path}, also={"--checkpoint": args.checkpoint})
 
-It raises :class:`~spherejam.errors.InputError` (the CLI prints one line and exits 2) naming the argument and the
-path when an output
+File outputs are parsed with ``type=output_file``. :func:`check_outputs` raises
+:class:`~spherejam.errors.InputError` (the CLI prints one line and exits 2) naming the argument and the path when
+an output
 
 - is empty, an existing directory, or ends with a path separator;
 - is the same file as an input (resolved paths, or ``os.path.samefile`` for hard links) or as another output;
@@ -45,7 +46,8 @@ def check_outputs(outputs: Mapping[str, PathLike | None], inputs: Mapping[str, P
         path = _check_one(name, raw)
         for in_name, in_path in ins.items():
             if _same(path, in_path):
-                raise InputError(f"{name}={str(raw)!r}: is the input {in_name} ({in_path}); refusing to overwrite it")
+                raise InputError(f"{name}={str(raw)!r}: is the same file as the input ({in_name} {in_path}); "
+                                 "refusing to overwrite it")
         for other, done in resolved.items():
             if _same(path, done):
                 raise InputError(f"{name}={str(raw)!r}: is also given as {other}")
@@ -71,10 +73,24 @@ def check_output_dir(name: str, raw: PathLike, inputs: Mapping[str, PathLike | N
     return path
 
 
+def output_file(text: str) -> Path:
+    """The argparse ``type=`` of a file output: like ``Path``, but an empty path or one ending with a separator (which
+    ``Path`` would silently turn into a file name) is refused at parse time, naming the option."""
+    import argparse
+
+    if text == "":
+        raise argparse.ArgumentTypeError("'': an empty path")
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"{text!r}: names a directory, not a file")
+    return Path(text)
+
+
 def figure_stem(raw: PathLike, default_name: str) -> Path:
     """The output stem of a figure: ``raw`` itself, or ``raw/<default_name>`` if ``raw`` is a folder (an existing
     directory or a path ending with a separator), so that ``-o figs/`` writes ``figs/fig2.png``."""
     text = os.fspath(raw)
+    if text == "":
+        raise InputError("-o/--output='': an empty path")
     if text.endswith(("/", os.sep)) or Path(text).is_dir():
         return Path(text) / default_name
     return Path(text)

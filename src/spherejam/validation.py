@@ -52,11 +52,12 @@ class Bound:
 
     def rule(self) -> str:
         kind = "an integer" if self.integer else "a finite number"
+        text = (lambda x: str(int(x))) if self.integer else (lambda x: f"{x:g}")
         parts = []
         if self.lo is not None:
-            parts.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
+            parts.append(f"{'>' if self.lo_open else '>='} {text(self.lo)}")
         if self.hi is not None:
-            parts.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+            parts.append(f"{'<' if self.hi_open else '<='} {text(self.hi)}")
         return f"must be {kind}" + (f" {' and '.join(parts)}" if parts else "")
 
     def ok(self, value: Any) -> bool:
@@ -174,7 +175,7 @@ def check_config(config: Any) -> dict:
     _check_finite("", config)
     for key in ("n", "seed", "sigmas", "ls", "fb"):
         if key not in config:
-            raise InputError(f"{key}: required key missing (a --configfile must be complete by itself)")
+            raise InputError(f"{key}: required key missing")
     for section in ("ls", "fb"):
         if not isinstance(config[section], dict) or "rates" not in config[section]:
             raise InputError(f"{section}.rates: required key missing")

@@ -6,7 +6,7 @@ import json
 import math
 from pathlib import Path
 
-from ..output_paths import check_outputs
+from ..output_paths import check_outputs, output_file
 from ..validation import PORE_SAMPLES
 from . import finite_float, seed_int
 
@@ -17,7 +17,7 @@ def register(sub) -> None:
     )
     p.add_argument("path", type=Path, help="packing file (.h5, actual diameters)")
     p.add_argument("--json", action="store_true", help="print machine-readable JSON")
-    p.add_argument("-o", "--output", type=Path, help="also write the JSON record to this file (atomically)")
+    p.add_argument("-o", "--output", type=output_file, help="also write the JSON record to this file (atomically)")
     p.add_argument(
         "--pressure", type=finite_float,
         help="reduced pressure p for the contact-tolerance rule (default: the file's reduced_pressure)",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..output_paths import check_outputs
+from ..output_paths import check_outputs, output_file
 from ..validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
 from . import EXIT_FAILED
 
@@ -23,8 +23,8 @@ def register(sub) -> None:
         "--phi-nominal", type=FIELDS["fb.phi_nominal"].arg, default=None,
         help="nominal density (default: the paper's rule, 0.6 at gamma=1e-3, 0.7 at 1e-7, linear in ln gamma)",
     )
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
-    p.add_argument("--checkpoint", type=Path, help="checkpoint file: resumed from if present")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
+    p.add_argument("--checkpoint", type=output_file, help="checkpoint file: resumed from if present")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds, 0 = every iteration (default 300)")
     p.add_argument("--max-iterations", type=FB_ITERATIONS.arg, help="stop after this many iterations")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InputError
-from ..output_paths import check_outputs
+from ..output_paths import check_outputs, output_file
 from ..validation import (EVENTS_PER_PARTICLE, FIELDS, INTERVAL, LS_RATE, MAX_COLLISIONS, SECONDS, UNIT_OPEN,
                           check_mls)
 from . import seed_int
@@ -23,7 +23,7 @@ def _ls_rate(text: str) -> float:
 
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="start packing (.h5): Poisson, LS, FB, ...")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--p-max", type=FIELDS["ls.p_max"].arg, default=1e12,
                    help="reduced-pressure threshold, 1 < p_max <= 1e15 (default 1e12)")
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the initial velocities (default 0)")
@@ -32,7 +32,7 @@ def _common(p) -> None:
     p.add_argument("--count-collisions", action="store_true",
                    help="count only collisions towards the window length (default: all events, as the reference)")
     p.add_argument("--max-wall-time", type=SECONDS.arg, default=None, help="stop after this many seconds (> 0)")
-    p.add_argument("--checkpoint", type=Path, default=None,
+    p.add_argument("--checkpoint", type=output_file, default=None,
                    help="checkpoint file: saved periodically, resumed from if present, removed when done")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds between checkpoints, 0 = every window (default 300)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..output_paths import check_outputs
+from ..output_paths import check_outputs, output_file
 from ..validation import FIELDS, OVERLAP_TOLERANCE
 from . import EXIT_FAILED, seed_int
 
@@ -21,7 +21,7 @@ def register(sub) -> None:
         "--phi-nominal", type=FIELDS["phi_nominal"].arg, default=0.6,
         help="packing fraction of the mean-1 nominal diameters; fixes the box side (default 0.6)",
     )
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.set_defaults(func=_seed)
 
     p = sub.add_parser("info", help="summarise a packing file")
@@ -38,7 +38,7 @@ def register(sub) -> None:
     p = sub.add_parser("export", help="convert a packing file (extended XYZ for OVITO)")
     p.add_argument("path", type=Path)
     p.add_argument("--format", choices=("xyz",), default="xyz")
-    p.add_argument("-o", "--output", type=Path, help="output path (default: input with the format's suffix)")
+    p.add_argument("-o", "--output", type=output_file, help="output path (default: input with the format's suffix)")
     p.set_defaults(func=_export)
 
 

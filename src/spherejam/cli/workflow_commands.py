@@ -5,30 +5,30 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InputError, PackingFileError
-from ..output_paths import check_output_dir, check_outputs, figure_stem
+from ..output_paths import check_output_dir, check_outputs, figure_stem, output_file
 from . import finite_float
 
 
 def register(sub) -> None:
     p = sub.add_parser("manifest", help="record a validated experiment config (JSON) for the dataset builder")
     p.add_argument("--config-json", required=True, help="the workflow's config as a JSON string")
-    p.add_argument("-o", "--output", type=Path, required=True)
+    p.add_argument("-o", "--output", type=output_file, required=True)
     p.set_defaults(func=_manifest)
 
     p = sub.add_parser("dataset", help="assemble results/dataset.nc from an experiment manifest")
     p.add_argument("manifest", type=Path, help="experiment.json written by the workflow")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output netCDF file")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output netCDF file")
     p.set_defaults(func=_dataset)
 
     p = sub.add_parser("tables", help="write Tables 2-4 (CSV, Markdown, LaTeX) from a dataset")
     p.add_argument("dataset", type=Path)
-    p.add_argument("--outdir", type=Path, required=True)
+    p.add_argument("--outdir", type=str, required=True, help="folder of the table files (made if missing)")
     p.set_defaults(func=_tables)
 
     p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
     p.add_argument("name", help="fig2, fig3, fig4, fig5, fig7, structure or forces")
     p.add_argument("dataset", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True,
+    p.add_argument("-o", "--output", type=str, required=True,
                    help="output stem (writes STEM.png and STEM.pdf); a folder (DIR/) writes DIR/NAME.png and .pdf")
     p.set_defaults(func=_figure)
 
@@ -40,9 +40,9 @@ def register(sub) -> None:
     p.add_argument("--rate-max", type=finite_float, help="only gamma <= this")
     p.add_argument("--columns", help="comma-separated variables to show (default: a standard set)")
     p.add_argument("--grid", action="store_true", help="show the validation-grid runs instead")
-    p.add_argument("--csv", type=Path, help="export the selection as CSV")
+    p.add_argument("--csv", type=output_file, help="export the selection as CSV")
     p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
-    p.add_argument("-o", "--output", type=Path, help="figure output stem or folder (default: ./<figure>)")
+    p.add_argument("-o", "--output", type=str, help="figure output stem or folder (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
     p.set_defaults(func=_browse)
 
@@ -79,10 +79,10 @@ def _tables(args) -> int:
     from ..dataset import open_dataset
     from ..tables import TABLE_FILES, write_tables
 
-    check_output_dir("--outdir", args.outdir, inputs={"dataset": args.dataset}, files=TABLE_FILES)
+    outdir = check_output_dir("--outdir", args.outdir, inputs={"dataset": args.dataset}, files=TABLE_FILES)
     ds = open_dataset(args.dataset)
     try:
-        paths = write_tables(ds, args.outdir)
+        paths = write_tables(ds, outdir)
     except KeyError as exc:
         raise PackingFileError(f"{args.dataset}: no variable {exc} (not a complete spherejam dataset)") from None
     for path in paths:
@@ -96,19 +96,18 @@ def _figure(args) -> int:
 
     if args.name not in FIGURES:
         raise InputError(f"figure={args.name!r}: must be one of {', '.join(FIGURES)}")
-    stem = _check_figure(args.output, args.name, args.dataset, "-o/--output")
+    stem, outputs = _figure_outputs(args.output, args.name)
+    check_outputs(outputs, inputs={"dataset": args.dataset})
     ds = open_dataset(args.dataset)
     for path in save_figure(_draw(draw, args.name, ds, args.dataset), stem):
         print(path)
     return 0
 
 
-def _check_figure(output, name: str, dataset: Path, option: str) -> Path:
-    """The figure's stem (a folder gets NAME inside it), with STEM.png and STEM.pdf checked as outputs."""
+def _figure_outputs(output: str, name: str) -> tuple[Path, dict[str, Path]]:
+    """The figure's stem (a folder gets NAME inside it) and its two files, by argument, for check_outputs."""
     stem = figure_stem(output, name)
-    check_outputs({f"{option} ({ext})": stem.with_name(f"{stem.name}.{ext}") for ext in ("png", "pdf")},
-                  inputs={"dataset": dataset})
-    return stem
+    return stem, {f"-o/--output ({ext})": stem.with_name(f"{stem.name}.{ext}") for ext in ("png", "pdf")}
 
 
 def _draw(draw, name: str, ds, dataset: Path):
@@ -131,18 +130,17 @@ def _browse(args) -> int:
 
     from ..dataset import open_dataset
 
-    check_outputs({"--csv": args.csv}, inputs={"dataset": args.dataset})
-    stem = None
+    outputs, stem = {"--csv": args.csv}, None
     if args.figure:
         from ..figures import FIGURES
 
         if args.figure not in FIGURES:
             raise InputError(f"--figure={args.figure!r}: must be one of {', '.join(FIGURES)}")
-        stem = _check_figure(args.output or Path(args.figure), args.figure, args.dataset, "-o/--output")
-        if args.csv and args.csv.resolve() in (stem.with_name(f"{stem.name}.{e}").resolve() for e in ("png", "pdf")):
-            raise InputError(f"--csv={str(args.csv)!r}: is also a figure output")
-    elif args.output:
+        stem, figure_files = _figure_outputs(args.figure if args.output is None else args.output, args.figure)
+        outputs.update(figure_files)
+    elif args.output is not None:
         raise InputError("-o/--output: only with --figure")
+    check_outputs(outputs, inputs={"dataset": args.dataset})
     ds = open_dataset(args.dataset)
     cfg = json.loads(ds.attrs["config"])
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
