@@ -127,6 +127,7 @@ FIELDS: dict[str, Bound] = {
     "mls.max_collisions_per_particle": Bound(0.0, 1e12, lo_open=True),
     "mls.max_wall_time": SECONDS,
     "validation_grid.sigmas[]": SIGMA,
+    "validation_grid.ls_rates[]": LS_RATE,
     "validation_grid.replicas": Bound(1, 10_000, integer=True),
     "validation_grid.decrease_factors[]": Bound(1.0, DECREASE_FACTOR_MAX, lo_open=True),
     "validation_grid.initial_rates[]": LS_RATE,
