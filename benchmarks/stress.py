@@ -9,8 +9,10 @@ output with gamma_0 = 10, f = 2, down to gamma_f = 1e-2.
 Each run ends as one of
   ok        the packing came back and has no pair overlapping by more than 1e-10 (relative to the contact distance);
   overlap   it came back with such a pair (a bug);
-  refused   the engine refused the input with an InputError (e.g. sigma = 0.5 at N = 100: the largest sphere
-            exceeds L / 2.5; that is the engine's documented limit, not a failure);
+  refused   the engine refused the input with an InputError;
+  box       the event-driven engine stopped because the largest sphere grew beyond L / 2.5 (minimum image):
+            its documented limit at small N and wide size distributions (sigma >= 0.3 at N = 100), not a bug;
+  skipped   an MLS whose LS start was not produced;
   error     anything else (a bug).
 
 The full grid takes days on one core; pick a subset:
@@ -31,7 +33,7 @@ from collections import Counter
 import numpy as np
 
 from spherejam.closest_jamming import find_closest_jamming
-from spherejam.errors import InputError
+from spherejam.errors import InputError, SimulationError
 from spherejam.force_biased import run_fb
 from spherejam.lubachevsky_stillinger import run_ls
 from spherejam.seeding import poisson_packing
@@ -77,6 +79,9 @@ def run_one(protocol: str, n: int, sigma: float, rate: float, seed: int, cache: 
         record.update(outcome="overlap" if count else "ok", overlaps=count, worst_overlap=worst, phi=packing.phi)
     except InputError as exc:
         record.update(outcome="refused", reason=str(exc))
+    except SimulationError as exc:
+        box = "too small for the largest sphere" in str(exc)
+        record.update(outcome="box" if box else "error", reason=f"SimulationError: {exc}")
     except Exception as exc:  # noqa: BLE001 - the point is to count every failure
         record.update(outcome="error", reason=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
     record["wall_time"] = time.perf_counter() - t0
@@ -120,12 +125,12 @@ def main(argv=None) -> int:
                 c = Counter(r["outcome"] for r in done)
                 worst = max((r.get("worst_overlap", -np.inf) for r in done), default=-np.inf)
                 print(f"{protocol:3s} N={n:<6d} sigma={sigma:<4g} runs={len(done):4d} ok={c['ok']:4d} "
-                      f"overlaps>1e-10={c['overlap']:3d} refused={c['refused']:3d} errors={c['error']:3d} "
-                      f"skipped={c['skipped']:3d} worst 1-r/D={worst:.2e} "
+                      f"overlaps>1e-10={c['overlap']:3d} refused={c['refused']:3d} box={c['box']:3d} "
+                      f"errors={c['error']:3d} skipped={c['skipped']:3d} worst 1-r/D={worst:.2e} "
                       f"wall={sum(r['wall_time'] for r in done if 'wall_time' in r):.0f}s", flush=True)
     total = Counter(r["outcome"] for r in records)
     print(f"TOTAL runs={len(records)} ok={total['ok']} overlaps>1e-10={total['overlap']} refused={total['refused']} "
-          f"errors={total['error']} skipped={total['skipped']}")
+          f"box={total['box']} errors={total['error']} skipped={total['skipped']}")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(records, fh, indent=1, default=float)
