@@ -190,7 +190,8 @@ def test_history_is_thinned_for_long_runs(monkeypatch):
         ({"rate": 1e-3, "phi_nominal": 1.0}, "phi_nominal"),
         ({"rate": 1e-3, "phi_nominal": math.inf}, "phi_nominal"),
         ({"rate": 1e-3, "max_iterations": -1}, "max_iterations"),
-        ({"rate": 1e-3, "checkpoint_interval": 0}, "checkpoint_interval"),
+        ({"rate": 1e-3, "checkpoint_interval": -1.0}, "checkpoint_interval"),  # 0 = every iteration, as in LS
+        ({"rate": 1e-3, "max_wall_time": 0.0}, "max_wall_time"),  # as in LS: a limit of 0 s is no run
     ],
 )
 def test_bad_input_names_the_field(kwargs, field):
