@@ -127,7 +127,7 @@ def test_schema_carries_the_same_limits(field):
     ({"mls__initial_rate": 1.0, "mls__final_rate": 5.0}, "config: mls.final_rate=5.0: must be <= mls.initial_rate"),
     ({"mls__decrease_factor": 1e300}, "config: mls.decrease_factor=1e+300"),
     ({"validation_grid__sigmas": [0.3]}, "config: validation_grid.sigmas[0]=0.3: not one of sigmas"),
-    ({"validation_grid__final_rates": [20.0]}, "config: validation_grid.final_rates=20.0: must be <="),
+    ({"validation_grid__final_rates": [20.0]}, "config: validation_grid.final_rates[0]=20.0: must be <="),
 ])
 def test_config_error_names_field_and_element_first(changes, first):
     assert schema_error(tiny(**changes)).startswith(first)

@@ -147,11 +147,6 @@ FB_ITERATIONS = Bound(0, 10**12, integer=True)
 OVERLAP_TOLERANCE = Bound(0.0, 1.0)
 
 
-def arg(field: str):
-    """The argparse type of the CLI option matching config field ``field``."""
-    return FIELDS[field].arg
-
-
 def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
               names: tuple[str, str, str] = ("mls.initial_rate", "mls.decrease_factor", "mls.final_rate")) -> None:
     """MLS consistency: final rate <= initial rate, and the last stage's rate (>= final_rate/f) still ends.
@@ -194,21 +189,24 @@ def check_config(config: Any) -> dict:
         for i, s in enumerate(grid.get("sigmas", [])):
             if round(float(s), 12) not in sigmas:
                 raise InputError(f"validation_grid.sigmas[{i}]={s!r}: not one of sigmas {config['sigmas']}")
-        for g0 in grid.get("initial_rates", []):
-            for f in grid.get("decrease_factors", []):
-                for gf in grid.get("final_rates", []):
-                    check_mls(g0, f, gf, ("validation_grid.initial_rates", "validation_grid.decrease_factors",
-                                          "validation_grid.final_rates"))
+        for a, g0 in enumerate(grid.get("initial_rates", [])):
+            for b, f in enumerate(grid.get("decrease_factors", [])):
+                for c, gf in enumerate(grid.get("final_rates", [])):
+                    names = (f"initial_rates[{a}]", f"decrease_factors[{b}]", f"final_rates[{c}]")
+                    check_mls(g0, f, gf, tuple(f"validation_grid.{name}" for name in names))
     from .experiment import PROTOCOLS, rate_grid
 
     total = 0
     for protocol in PROTOCOLS:
-        rates = rate_grid(config[protocol]["rates"])
+        try:
+            rates = rate_grid(config[protocol]["rates"])
+        except InputError as exc:
+            raise InputError(f"{protocol}.{exc}") from None
         for i, r in enumerate(rates):
             (LS_RATE if protocol == "ls" else FB_RATE).check(f"{protocol}.rates[{i}]", r)
         total += len(rates) * len(config["sigmas"]) * int(config.get("replicas", 1))
     if total > MAX_RUNS:
-        raise InputError(f"config: {total} runs (sigmas x rates x replicas): at most {MAX_RUNS}")
+        raise InputError(f"sigmas x rates x replicas = {total} runs: at most {MAX_RUNS}")
     return config
 
 
