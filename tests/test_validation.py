@@ -194,10 +194,10 @@ def _set(cfg, field, value, index):
 CONFIG_FIELDS = [f for f in FIELDS if f != "rates.count" and not f.startswith(("fits.", "fast.", "gcp"))]
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@pytest.mark.parametrize("field", CONFIG_FIELDS)
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
-def test_config_values_outside_their_limits(data, tmp_path):
-    field = data.draw(st.sampled_from(CONFIG_FIELDS), label="field")
+def test_config_values_outside_their_limits(field, data, tmp_path):
     value = data.draw(outside(FIELDS[field]), label="value")
     cfg = tiny()
     path = _set(cfg, field, value, data.draw(st.integers(0, 3), label="index"))
@@ -242,10 +242,10 @@ def packing(tmp_path_factory):
     return path
 
 
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@pytest.mark.parametrize("argv, option, bound", CLI_OPTIONS, ids=[o for _, o, _ in CLI_OPTIONS])
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
-def test_cli_numbers_outside_their_limits(data, packing, tmp_path):
-    argv, option, bound = data.draw(st.sampled_from(CLI_OPTIONS), label="option")
+def test_cli_numbers_outside_their_limits(argv, option, bound, data, packing, tmp_path):
     value = data.draw(outside(bound), label="value")
     out = tmp_path / "out.h5"
     code, err = cli(*[{"IN": packing, "OUT": out}.get(a, a) for a in argv], repr(value))
