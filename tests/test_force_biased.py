@@ -221,4 +221,4 @@ def test_cli_fb(tmp_path, capsys):
                  "--checkpoint", str(ck)]) == 1
     assert ck.exists() and not (tmp_path / "b.h5").exists()
     assert main(["-q", "fb", str(src), "--rate", "2", "-o", str(tmp_path / "c.h5")]) == 2
-    assert "rate=2.0" in capsys.readouterr().err
+    assert "--rate: '2'" in capsys.readouterr().err  # refused by the option's limit (spherejam.validation)

@@ -27,10 +27,7 @@ def cli(*args):
     """(exit code, stderr lines) of ``spherejam ARGS``, run in-process."""
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        try:
-            code = main([str(a) for a in args])
-        except SystemExit as exc:  # argparse errors
-            code = exc.code
+        code = main([str(a) for a in args])
     return code, err.getvalue().strip().splitlines()
 
 

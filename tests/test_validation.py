@@ -29,10 +29,7 @@ TINY = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
 def cli(*args):
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        try:
-            code = main([str(a) for a in args])
-        except SystemExit as exc:
-            code = exc.code
+        code = main([str(a) for a in args])
     return code, err.getvalue().strip().splitlines()
 
 
