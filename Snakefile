@@ -5,7 +5,11 @@
 #   snakemake --cores 2 --configfile config/paper.yaml   # the paper's own experiment (a cluster job)
 #   snakemake --report results/report.html               # all figures and tables with captions
 
-configfile: "config/config.yaml"
+# A --configfile is the whole experiment (checked complete by itself in rules/common.smk); only without one does the
+# default config apply. Snakemake would otherwise merge the user's file over config/config.yaml key by key.
+if not workflow.overwrite_configfiles:
+
+    configfile: "config/config.yaml"
 
 
 report: "report/workflow.rst"

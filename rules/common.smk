@@ -2,12 +2,17 @@
 import json
 import os
 
-from snakemake.utils import validate
+from snakemake.exceptions import WorkflowError
 
 from spherejam import cluster_resources
+from spherejam.errors import InputError
 from spherejam.experiment import Experiment, parse_run
+from spherejam.validation import validate_config
 
-validate(config, workflow.source_path("../config/schema.yaml"))
+try:  # the schema (filling in its defaults), then the limits and consistency rules of spherejam.validation
+    validate_config(config, workflow.source_path("../config/schema.yaml"))
+except InputError as exc:
+    raise WorkflowError(str(exc)) from None
 
 EXP = Experiment(config)
 R = str(EXP.results)

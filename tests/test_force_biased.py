@@ -190,7 +190,8 @@ def test_history_is_thinned_for_long_runs(monkeypatch):
         ({"rate": 1e-3, "phi_nominal": 1.0}, "phi_nominal"),
         ({"rate": 1e-3, "phi_nominal": math.inf}, "phi_nominal"),
         ({"rate": 1e-3, "max_iterations": -1}, "max_iterations"),
-        ({"rate": 1e-3, "checkpoint_interval": 0}, "checkpoint_interval"),
+        ({"rate": 1e-3, "checkpoint_interval": -1.0}, "checkpoint_interval"),  # 0 = every iteration, as in LS
+        ({"rate": 1e-3, "max_wall_time": 0.0}, "max_wall_time"),  # as in LS: a limit of 0 s is no run
     ],
 )
 def test_bad_input_names_the_field(kwargs, field):
@@ -220,4 +221,4 @@ def test_cli_fb(tmp_path, capsys):
                  "--checkpoint", str(ck)]) == 1
     assert ck.exists() and not (tmp_path / "b.h5").exists()
     assert main(["-q", "fb", str(src), "--rate", "2", "-o", str(tmp_path / "c.h5")]) == 2
-    assert "rate=2.0" in capsys.readouterr().err
+    assert "--rate: '2'" in capsys.readouterr().err  # refused by the option's limit (spherejam.validation)

@@ -26,10 +26,10 @@ def test_dry_run(config, tmp_path):
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
     r = snakemake("-n", "-p", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
     assert r.returncode == 0, r.stderr[-3000:]
-    # every MLS job gets the MLS settings of the merged config (the paper's must not inherit the default's cut)
+    # every MLS job gets the MLS settings of its own config (the paper's must not inherit the default's cut)
     mls_jobs = [line for line in r.stdout.splitlines() if "spherejam mls " in line]
     assert mls_jobs
-    mls = load_configs(ROOT / "config" / "config.yaml", ROOT / "config" / config)["mls"]
+    mls = load_configs(ROOT / "config" / config)["mls"]  # a --configfile is the whole config
     cut = mls.get("max_collisions_per_particle")
     assert all(f"--stall-windows {mls['stall_windows']}" in job for job in mls_jobs)
     if cut is None:
@@ -50,6 +50,8 @@ def test_dry_run(config, tmp_path):
         ({"mls": {"decrease_factor": 1.0}}, "decrease_factor"),
         ({"mls": {"max_collisions_per_particle": 0}}, "max_collisions_per_particle"),
         ({"mls": {"stall_windows": 0}}, "stall_windows"),
+        ({"ls": {"rates": [0.5, float("nan")], "p_max": 1e12}}, "config: ls.rates[1]=nan"),
+        ({"fb": {"rates": [1.5], "phi_nominal": None}}, "config: fb.rates[0]=1.5"),
     ],
 )
 def test_bad_config_stops_before_any_job(change, needle, tmp_path):
@@ -60,6 +62,18 @@ def test_bad_config_stops_before_any_job(change, needle, tmp_path):
     r = snakemake("-n", "--cores", "1", "--configfile", str(tmp_path / "bad.yaml"))
     assert r.returncode != 0
     assert needle in r.stdout + r.stderr
+    assert not (tmp_path / "results").exists()
+
+
+def test_configfile_is_not_completed_from_the_default(tmp_path):
+    """A --configfile without `n` stops the run; it does not silently take N = 200 from config/config.yaml."""
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    cfg["results"] = str(tmp_path / "results")
+    del cfg["n"]
+    (tmp_path / "partial.yaml").write_text(yaml.safe_dump(cfg))
+    r = snakemake("-n", "--cores", "1", "--configfile", str(tmp_path / "partial.yaml"))
+    assert r.returncode != 0
+    assert "config: n: required key missing" in r.stdout + r.stderr
     assert not (tmp_path / "results").exists()
 
 

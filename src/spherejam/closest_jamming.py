@@ -42,6 +42,7 @@ from .lubachevsky_stillinger import (
 )
 from .packing import Packing
 from .runs import RunResult
+from .validation import check_mls
 
 CHECKPOINT_KIND_MLS = "mls"
 #: A stall counts only at p >= this fraction of p_max: lower plateaus are not the precision floor.
@@ -199,6 +200,7 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
             "max_equilibration_windows", max_equilibration_windows, "must be an integer >= 1")
     require(stall_windows is None or (isinstance(stall_windows, (int, np.integer)) and stall_windows >= 1),
             "stall_windows", stall_windows, "must be an integer >= 1 or None")
+    check_mls(initial_rate, decrease_factor, final_rate, ("initial_rate", "decrease_factor", "final_rate"))
     parameters = {
         "initial_rate": float(initial_rate), "decrease_factor": float(decrease_factor),
         "final_rate": float(final_rate), "p_max": float(p_max),

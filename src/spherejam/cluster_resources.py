@@ -272,7 +272,8 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")
-    ap.add_argument("configs", nargs="+", help="config files, e.g. config/config.yaml config/paper.yaml")
+    ap.add_argument("configs", nargs="+",
+                    help="a config file, e.g. config/paper.yaml (several: later ones override earlier ones)")
     args = ap.parse_args(argv)
     print_plan(load_configs(*args.configs))
     return 0
@@ -290,8 +291,9 @@ def print_plan(config: dict) -> None:
 
 
 def load_configs(*paths) -> dict:
-    """Config files merged as Snakemake merges ``--configfile`` over the Snakefile's: later files override earlier
-    ones key by key, recursively into nested mappings."""
+    """Config files merged as Snakemake merges several ``--configfile`` arguments: later files override earlier
+    ones key by key, recursively into nested mappings. (The workflow no longer merges a ``--configfile`` over
+    config/config.yaml: one file is the whole experiment.)"""
     import yaml  # lazy: the rules' resource lambdas never need it
 
     config: dict = {}

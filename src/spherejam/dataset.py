@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_output
-from .errors import PackingFileError
+from .errors import InputError, PackingFileError
 from .experiment import Experiment, GridRun, Run, config_hash
 from .packing_io import FORMAT, dumps
 from .provenance import provenance
@@ -71,7 +71,12 @@ MLS_COMPLETED = ("final_rate", "final_rate_stalled", "jammed")
 
 
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
-    """Write the resolved experiment (config, hash, provenance) that the dataset builder reads."""
+    """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
+
+    The config passes :func:`spherejam.validation.check_config` (every limit and consistency rule) first."""
+    from .validation import check_config
+
+    check_config(config)
     exp = Experiment(config)
     manifest = {"config": config, "config_hash": config_hash(config), "provenance": provenance()}
     with atomic_output(path, ".json") as tmp:
@@ -273,9 +278,18 @@ def build_dataset(manifest_path: str | os.PathLike):
     manifest_path = Path(manifest_path)
     try:
         manifest = json.loads(manifest_path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise PackingFileError(f"{manifest_path}: unreadable manifest ({exc})") from None
-    config = manifest["config"]
+    except (OSError, ValueError) as exc:  # ValueError: bad JSON, or a binary file (UnicodeDecodeError)
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise PackingFileError(f"{manifest_path}: unreadable manifest ({reason})") from None
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("config"), dict) or "config_hash" not in manifest:
+        raise PackingFileError(f"{manifest_path}: not an experiment manifest (needs 'config' and 'config_hash'; "
+                               "write one with `spherejam manifest`)")
+    from .validation import check_config
+
+    try:
+        config = check_config(manifest["config"])
+    except InputError as exc:
+        raise PackingFileError(f"{manifest_path}: config {exc}") from None
     exp = Experiment(config)
 
     runs, rows = collect_runs(exp)
@@ -349,6 +363,15 @@ def open_dataset(path: str | os.PathLike):
         raise PackingFileError(f"{path}: not a readable netCDF dataset ({str(exc).splitlines()[0]})") from None
     if "config" not in ds.attrs or "packing" not in ds.dims:
         raise PackingFileError(f"{path}: not a spherejam results dataset (no 'config' attribute or 'packing' dim)")
+    missing = [v for v in ("protocol", "sigma", "rate") if v not in ds.variables]
+    if missing:
+        raise PackingFileError(f"{path}: not a spherejam results dataset (no variable {', '.join(missing)})")
+    try:
+        config = json.loads(ds.attrs["config"])
+    except (TypeError, ValueError):
+        config = None
+    if not isinstance(config, dict):
+        raise PackingFileError(f"{path}: its 'config' attribute is not a JSON mapping")
     return ds
 
 

@@ -431,12 +431,13 @@ def run_fb(
         require(isinstance(max_iterations, (int, np.integer)) and max_iterations >= 0, "max_iterations",
                 max_iterations, "must be an integer >= 0 or None")
     if max_wall_time is not None:
-        require(math.isfinite(max_wall_time) and max_wall_time >= 0, "max_wall_time", max_wall_time,
-                "must be >= 0 seconds or None")
-    require(math.isfinite(checkpoint_interval) and checkpoint_interval > 0, "checkpoint_interval",
-            checkpoint_interval, "must be > 0 seconds")
-    require(math.isfinite(progress_interval) and progress_interval > 0, "progress_interval", progress_interval,
-            "must be > 0 seconds")
+        require(math.isfinite(max_wall_time) and max_wall_time > 0, "max_wall_time", max_wall_time,
+                "must be None or a number > 0 (seconds)")
+    # as in LS: 0 = at every iteration
+    require(math.isfinite(checkpoint_interval) and checkpoint_interval >= 0, "checkpoint_interval",
+            checkpoint_interval, "must be a number >= 0 (seconds)")
+    require(math.isfinite(progress_interval) and progress_interval >= 0, "progress_interval", progress_interval,
+            "must be a number >= 0 (seconds)")
 
     box = packing.box
     rel = packing.diameters / packing.mean_diameter

@@ -40,6 +40,7 @@ from .packing import Packing, ball_volume
 from .progress import log_fraction
 from .progress import rate as rate_of
 from .runs import History, Progress, RunResult
+from .validation import EVENTS_PER_PARTICLE
 
 DEFAULT_TEMPERATURE = 0.2
 #: Relative overlap that makes a window audit (or the final audit) fail.
@@ -325,8 +326,8 @@ def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time,
     require(packing.dim == 3, "dim", packing.dim, "the LS engine supports d = 3 only")
     require(_finite(p_max) and p_max > 1, "p_max", p_max, "must be a finite number > 1")
     require(isinstance(seed, (int, np.integer)) and seed >= 0, "seed", seed, "must be an integer >= 0")
-    require(isinstance(events_per_particle, (int, np.integer)) and events_per_particle >= 1,
-            "events_per_particle", events_per_particle, "must be an integer >= 1")
+    require(isinstance(events_per_particle, (int, np.integer)) and EVENTS_PER_PARTICLE.ok(events_per_particle),
+            "events_per_particle", events_per_particle, EVENTS_PER_PARTICLE.rule())  # int64 window counters
     require(max_wall_time is None or (_finite(max_wall_time) and max_wall_time > 0), "max_wall_time",
             max_wall_time, "must be None or a number > 0 (seconds)")
     require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),

@@ -13,6 +13,7 @@ import numpy as np
 
 from .errors import require
 from .packing import Packing, ball_volume
+from .validation import N_MAX
 
 #: Upper bound of sigma we accept: beyond it log-normal size ratios grow so large that the
 #: cell-list cost bound (size ratio up to ~1:10 for N ~ 1e4) no longer holds.
@@ -62,7 +63,7 @@ def poisson_packing(
     dim : int
         Dimension d (2 ... 5).
     """
-    require(isinstance(n, (int, np.integer)) and n >= 2, "n", n, "must be an integer >= 2")
+    require(isinstance(n, (int, np.integer)) and 2 <= n <= N_MAX, "n", n, f"must be an integer in [2, {N_MAX}]")
     require(isinstance(dim, (int, np.integer)) and 2 <= dim <= 5, "dim", dim, "must be 2, 3, 4 or 5")
     rng = rng_for(seed)
     nominal = lognormal_diameters(n, sigma, rng)

@@ -183,6 +183,10 @@ def compute_tables(ds) -> dict[str, pd.DataFrame]:
     return {"table2": t2, "table3": t3, "table4": table4(ds, t2, t3)}
 
 
+#: The files :func:`write_tables` writes into its folder.
+TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") for ext in ("csv", "md", "tex"))
+
+
 def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
     """Write every table as ``<name>.csv`` (machine-readable, long), ``.md`` and ``.tex`` (paper layout)."""
     outdir = Path(outdir)

@@ -3,7 +3,9 @@
 Each subcommand lives in its own module under :mod:`spherejam.cli` and exposes ``register(subparsers)``; heavy
 modules (numba engines) are imported only when their command runs, so ``spherejam --help`` stays fast.
 Errors a user can cause print one line ``spherejam <cmd>: error: ...`` and exit with status 2 (bad input) or 1
-(a check failed).
+(a check failed). Every command checks its output paths before any work (:mod:`spherejam.output_paths`) and takes
+its numeric limits from :mod:`spherejam.validation`. A closed pipe (``spherejam info x | head -1``) ends the command
+quietly with status 141, as a killed-by-SIGPIPE program would.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
 from .. import __version__
@@ -22,6 +25,7 @@ COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
+EXIT_BROKEN_PIPE = 141
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -48,13 +52,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a usage error (2), --help or --version (0): returned like every other outcome
+        return int(exc.code or 0)
     logging.basicConfig(
         level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s", stream=sys.stderr
     )
     try:
         with live_status(enabled=not args.quiet):  # the live progress line, on a terminal only
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        return code
+    except BrokenPipeError:
+        # the reader went away: say nothing, and point stdout at /dev/null so the exit-time flush cannot fail again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except (InputError, PackingFileError) as exc:
         sys.stderr.write(f"spherejam {args.command}: error: {exc}\n")
         return EXIT_BAD_INPUT
@@ -64,6 +77,13 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write(f"spherejam {args.command}: interrupted\n")
         return 130
+    except MemoryError:
+        sys.stderr.write(f"spherejam {args.command}: error: out of memory\n")
+        return EXIT_FAILED
+    except OSError as exc:  # disk full, a file vanished mid-run: the system's reason and the file, in one line
+        where = f"{exc.filename}: " if exc.filename else ""
+        sys.stderr.write(f"spherejam {args.command}: error: {where}{exc.strerror or exc}\n")
+        return EXIT_FAILED
 
 
 # helpers shared by the command modules --------------------------------------------------------------------------
@@ -98,13 +118,10 @@ def finite_float(text: str) -> float:
 
 
 def seed_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
-    return value
+    """An argparse type: a seed, 0 <= seed < 2^63 (stored as a signed 64-bit integer)."""
+    from ..validation import FIELDS
+
+    return FIELDS["seed"].arg(text)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,7 +6,9 @@ import json
 import math
 from pathlib import Path
 
-from . import finite_float, int_at_least, seed_int
+from ..output_paths import check_outputs, output_file
+from ..validation import PORE_SAMPLES
+from . import finite_float, seed_int
 
 
 def register(sub) -> None:
@@ -15,7 +17,7 @@ def register(sub) -> None:
     )
     p.add_argument("path", type=Path, help="packing file (.h5, actual diameters)")
     p.add_argument("--json", action="store_true", help="print machine-readable JSON")
-    p.add_argument("-o", "--output", type=Path, help="also write the JSON record to this file (atomically)")
+    p.add_argument("-o", "--output", type=output_file, help="also write the JSON record to this file (atomically)")
     p.add_argument(
         "--pressure", type=finite_float,
         help="reduced pressure p for the contact-tolerance rule (default: the file's reduced_pressure)",
@@ -26,8 +28,8 @@ def register(sub) -> None:
     )
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the pore-size sampling (default 0)")
     p.add_argument(
-        "--pore-samples", type=int_at_least(1),
-        help="number of random points for the pore-size entropy (default: the convergence rule, >= 1e7)",
+        "--pore-samples", type=PORE_SAMPLES.arg,
+        help="number of random points for the pore-size entropy, 1 ... 1e9 (default: the convergence rule, >= 1e7)",
     )
     p.add_argument("--scan", action="store_true", help="also print Z over the tolerance grid (the plateau)")
     p.set_defaults(func=_analyze)
@@ -43,6 +45,7 @@ def _analyze(args) -> int:
     from ..packing_io import read_packing
     from ..structure import VARIABLES, analyze
 
+    check_outputs({"-o/--output": args.output}, inputs={"path": args.path})
     packing = read_packing(args.path)
     result = analyze(
         packing, pressure=args.pressure, contact_tolerance=args.contact_tolerance, seed=args.seed,

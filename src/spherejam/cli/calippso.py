@@ -5,23 +5,29 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from . import EXIT_FAILED, finite_float, int_at_least
+from ..output_paths import check_outputs, output_file
+from ..validation import CALIPPSO_ITERATIONS
+from . import EXIT_FAILED, finite_float
 
 
 def register(sub) -> None:
-    p = sub.add_parser("calippso", help="jam a packing with CALiPPSO (iterative LP, HiGHS) and report its forces")
+    p = sub.add_parser("calippso", help="jam a packing with CALiPPSO (iterative LP, HiGHS) and report its forces",
+                       description="Exit status: 0 converged, 1 not converged within --max-iterations (the output "
+                       "is written all the same, marked converged False), 2 bad input.")
     p.add_argument("path", type=Path, help="input packing file (.h5), overlap-free")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
-    p.add_argument("--max-iterations", type=int_at_least(1), default=1000, help="iteration cap (1000)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
+    p.add_argument("--max-iterations", type=CALIPPSO_ITERATIONS.arg, default=1000, help="iteration cap (1000)")
     p.add_argument("--gamma-tolerance", type=finite_float, default=1e-12, help="sqrt(Gamma)-1 tolerance (1e-12)")
     p.add_argument("--displacement-tolerance", type=finite_float, default=1e-9,
                    help="max |s| of non-rattlers, units of the largest diameter (1e-9)")
     p.add_argument("--cutoff", type=finite_float, default=None,
                    help="regime-1 cutoff l0, units of the initial largest diameter (default 2 = 4 radii)")
-    p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (resume if it exists)")
-    p.add_argument("--require-convergence", action="store_true", help="exit 1 if not converged")
+    p.add_argument("--checkpoint", type=output_file, default=None, help="checkpoint file (resume if it exists)")
+    p.add_argument("--require-convergence", action="store_true",
+                   help="stop with an error and write nothing if not converged (without it an unconverged run "
+                        "still writes its output, reports converged False and exits 1)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
-    p.add_argument("--summary", type=Path, default=None,
+    p.add_argument("--summary", type=output_file, default=None,
                    help="also write the summary (scalars and power-law fits) to this JSON file")
     p.set_defaults(func=_calippso)
 
@@ -31,6 +37,8 @@ def _calippso(args) -> int:
     from ..calippso import contact_arrays, distributions, run_calippso
     from ..packing_io import read_packing, write_packing
 
+    check_outputs({"-o/--output": args.output, "--summary": args.summary}, inputs={"path": args.path},
+                  also={"--checkpoint": args.checkpoint})
     packing = read_packing(args.path)
     result = run_calippso(
         packing, max_iterations=args.max_iterations, gamma_tolerance=args.gamma_tolerance,

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import EXIT_FAILED, finite_float, int_at_least
+from ..output_paths import check_outputs, output_file
+from ..validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
+from . import EXIT_FAILED
 
 
 def register(sub) -> None:
@@ -15,17 +17,20 @@ def register(sub) -> None:
         "write the packing at its inner (actual) diameters, with the per-iteration history.",
     )
     p.add_argument("input", type=Path, help="start packing (.h5), e.g. from `spherejam seed`")
-    p.add_argument("--rate", type=finite_float, required=True, help="contraction rate gamma, 0 < gamma < 1")
+    p.add_argument("--rate", type=FIELDS["fb.rates[]"].arg, required=True,
+                   help="contraction rate gamma, 1e-9 <= gamma < 1")
     p.add_argument(
-        "--phi-nominal", type=finite_float, default=None,
+        "--phi-nominal", type=FIELDS["fb.phi_nominal"].arg, default=None,
         help="nominal density (default: the paper's rule, 0.6 at gamma=1e-3, 0.7 at 1e-7, linear in ln gamma)",
     )
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
-    p.add_argument("--checkpoint", type=Path, help="checkpoint file: resumed from if present")
-    p.add_argument("--checkpoint-interval", type=finite_float, default=300.0, help="seconds (default 300)")
-    p.add_argument("--max-iterations", type=int_at_least(0), help="stop after this many iterations")
-    p.add_argument("--max-wall-time", type=finite_float, help="stop after this many seconds")
-    p.add_argument("--progress-interval", type=finite_float, default=10.0, help="seconds (default 10)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
+    p.add_argument("--checkpoint", type=output_file, help="checkpoint file: resumed from if present")
+    p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
+                   help="seconds, 0 = every iteration (default 300)")
+    p.add_argument("--max-iterations", type=FB_ITERATIONS.arg, help="stop after this many iterations")
+    p.add_argument("--max-wall-time", type=SECONDS.arg, help="stop after this many seconds (> 0)")
+    p.add_argument("--progress-interval", type=INTERVAL.arg, default=10.0,
+                   help="seconds, 0 = every iteration (default 10)")
     p.set_defaults(func=_fb)
 
 
@@ -33,6 +38,7 @@ def _fb(args) -> int:
     from ..force_biased import run_fb
     from ..packing_io import read_packing, write_packing
 
+    check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
     start = read_packing(args.input, tolerance=None)  # FB accepts overlapping starts
     result = run_fb(
         start, args.rate, phi_nominal=args.phi_nominal, max_iterations=args.max_iterations,

@@ -4,50 +4,69 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import require
-from . import finite_float, int_at_least, seed_int
+from ..errors import InputError
+from ..output_paths import check_outputs, output_file
+from ..validation import (EVENTS_PER_PARTICLE, FIELDS, INTERVAL, LS_RATE, MAX_COLLISIONS, SECONDS, UNIT_OPEN,
+                          check_mls)
+from . import seed_int
+
+
+def _ls_rate(text: str) -> float:
+    """An LS rate: 0 (equilibrate only) or inside the limits of :data:`spherejam.validation.LS_RATE`."""
+    try:
+        if float(text) == 0.0:
+            return 0.0
+    except ValueError:
+        pass
+    return LS_RATE.arg(text)
 
 
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="start packing (.h5): Poisson, LS, FB, ...")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
-    p.add_argument("--p-max", type=finite_float, default=1e12, help="reduced-pressure threshold (default 1e12)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
+    p.add_argument("--p-max", type=FIELDS["ls.p_max"].arg, default=1e12,
+                   help="reduced-pressure threshold, 1 < p_max <= 1e15 (default 1e12)")
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the initial velocities (default 0)")
-    p.add_argument("--events-per-particle", type=int_at_least(1), default=20,
-                   help="window length in events per particle (default 20)")
+    p.add_argument("--events-per-particle", type=EVENTS_PER_PARTICLE.arg, default=20,
+                   help="window length in events per particle, 1 ... 10^6 (default 20)")
     p.add_argument("--count-collisions", action="store_true",
                    help="count only collisions towards the window length (default: all events, as the reference)")
-    p.add_argument("--max-wall-time", type=finite_float, default=None, help="stop after this many seconds")
-    p.add_argument("--checkpoint", type=Path, default=None,
+    p.add_argument("--max-wall-time", type=SECONDS.arg, default=None, help="stop after this many seconds (> 0)")
+    p.add_argument("--checkpoint", type=output_file, default=None,
                    help="checkpoint file: saved periodically, resumed from if present, removed when done")
-    p.add_argument("--checkpoint-interval", type=finite_float, default=300.0,
-                   help="seconds between checkpoints (default 300)")
-    p.add_argument("--progress-interval", type=finite_float, default=10.0,
-                   help="seconds between progress lines (default 10)")
+    p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
+                   help="seconds between checkpoints, 0 = every window (default 300)")
+    p.add_argument("--progress-interval", type=INTERVAL.arg, default=10.0,
+                   help="seconds between progress lines, 0 = every window (default 10)")
 
 
 def register(sub) -> None:
     p = sub.add_parser("ls", help="compress with the Lubachevsky-Stillinger algorithm until p >= p_max")
     _common(p)
-    p.add_argument("--rate", type=finite_float, required=True, help="compression rate gamma = d rho/dt (>= 0)")
-    p.add_argument("--target-phi", type=finite_float, default=None, help="stop at this packing fraction")
-    p.add_argument("--max-collisions", type=int_at_least(1), default=None, help="stop after this many collisions")
+    p.add_argument("--rate", type=_ls_rate, required=True,
+                   help="compression rate gamma = d rho/dt: 1e-8 ... 1e3, or 0 with a stop option")
+    p.add_argument("--target-phi", type=UNIT_OPEN.arg, default=None, help="stop at this packing fraction")
+    p.add_argument("--max-collisions", type=MAX_COLLISIONS.arg, default=None,
+                   help="stop after this many collisions")
     p.set_defaults(func=_ls)
 
     p = sub.add_parser("mls", help="closest jammed configuration (modified LS search of the paper)")
     _common(p)
-    p.add_argument("--initial-rate", type=finite_float, default=10.0, help="first compression rate (default 10)")
-    p.add_argument("--decrease-factor", type=finite_float, default=2.0, help="rate divisor per stage (default 2)")
-    p.add_argument("--final-rate", type=finite_float, default=1e-4, help="termination rate (default 1e-4)")
-    p.add_argument("--max-equilibration-windows", type=int_at_least(1), default=50,
+    p.add_argument("--initial-rate", type=FIELDS["mls.initial_rate"].arg, default=10.0,
+                   help="first compression rate, 1e-8 ... 1e3 (default 10)")
+    p.add_argument("--decrease-factor", type=FIELDS["mls.decrease_factor"].arg, default=2.0,
+                   help="rate divisor per stage, 1 < f <= 100 (default 2)")
+    p.add_argument("--final-rate", type=FIELDS["mls.final_rate"].arg, default=1e-4,
+                   help="termination rate, <= the initial rate (default 1e-4)")
+    p.add_argument("--max-equilibration-windows", type=FIELDS["mls.max_equilibration_windows"].arg, default=50,
                    help="zero-rate windows with p >= p_max that mean 'jammed' (default 50)")
     stall = p.add_mutually_exclusive_group()
-    stall.add_argument("--stall-windows", type=int_at_least(1), default=None,
+    stall.add_argument("--stall-windows", type=FIELDS["mls.stall_windows"].arg, default=None,
                        help="compression windows with p >= p_max/10 flat within 10%% that end a stage as if p_max "
                             "were reached (double-precision floor; default 1000)")
     stall.add_argument("--no-stall-rule", action="store_true",
                        help="the paper's rule exactly: a stage ends only at p >= p_max")
-    p.add_argument("--max-collisions-per-particle", type=finite_float, default=None,
+    p.add_argument("--max-collisions-per-particle", type=FIELDS["mls.max_collisions_per_particle"].arg, default=None,
                    help="cut the search after this many collisions per particle (deterministic; default: no cut)")
     p.set_defaults(func=_mls)
 
@@ -59,6 +78,10 @@ def _options(args) -> dict:
         "checkpoint": args.checkpoint, "checkpoint_interval": args.checkpoint_interval,
         "progress_interval": args.progress_interval,
     }
+
+
+def _check_paths(args) -> None:
+    check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
 
 
 def _finish(args, result, label: str) -> int:
@@ -75,6 +98,9 @@ def _ls(args) -> int:
     from ..lubachevsky_stillinger import run_ls
     from ..packing_io import read_packing
 
+    if args.rate == 0 and args.target_phi is None and args.max_collisions is None and args.max_wall_time is None:
+        raise InputError("--rate=0: never reaches p_max; give --max-collisions, --target-phi or --max-wall-time")
+    _check_paths(args)
     packing = read_packing(args.input)
     result = run_ls(packing, args.rate, target_phi=args.target_phi, max_collisions=args.max_collisions,
                     **_options(args))
@@ -85,11 +111,12 @@ def _mls(args) -> int:
     from ..closest_jamming import DEFAULT_STALL_WINDOWS, find_closest_jamming
     from ..packing_io import read_packing
 
+    check_mls(args.initial_rate, args.decrease_factor, args.final_rate,
+              ("--initial-rate", "--decrease-factor", "--final-rate"))
+    _check_paths(args)
     packing = read_packing(args.input)
     max_collisions = None
     if args.max_collisions_per_particle is not None:
-        require(args.max_collisions_per_particle > 0, "--max-collisions-per-particle",
-                args.max_collisions_per_particle, "must be > 0")
         max_collisions = max(1, int(round(args.max_collisions_per_particle * packing.n)))
     result = find_closest_jamming(
         packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,

@@ -5,20 +5,23 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from . import EXIT_FAILED, finite_float, int_at_least, seed_int
+from ..output_paths import check_output_dir, check_outputs, output_file
+from ..validation import FIELDS, OVERLAP_TOLERANCE
+from . import EXIT_FAILED, seed_int
 
 
 def register(sub) -> None:
     p = sub.add_parser("seed", help="make a Poisson packing (uniform centres, log-normal diameters)")
-    p.add_argument("--n", type=int_at_least(2), required=True, help="number of spheres N (>= 2)")
-    p.add_argument("--sigma", type=finite_float, default=0.0, help="relative std of the diameters (default 0)")
+    p.add_argument("--n", type=FIELDS["n"].arg, required=True, help="number of spheres N (2 ... 10^7)")
+    p.add_argument("--sigma", type=FIELDS["sigmas[]"].arg, default=0.0,
+                   help="relative std of the diameters, 0 ... 1 (default 0)")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     p.add_argument("--dim", type=int, default=3, choices=(2, 3, 4, 5), help="dimension d (default 3)")
     p.add_argument(
-        "--phi-nominal", type=finite_float, default=0.6,
+        "--phi-nominal", type=FIELDS["phi_nominal"].arg, default=0.6,
         help="packing fraction of the mean-1 nominal diameters; fixes the box side (default 0.6)",
     )
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.set_defaults(func=_seed)
 
     p = sub.add_parser("info", help="summarise a packing file")
@@ -28,7 +31,8 @@ def register(sub) -> None:
 
     p = sub.add_parser("check", help="validate a packing file: format, box, and overlaps")
     p.add_argument("path", type=Path)
-    p.add_argument("--tolerance", type=finite_float, default=1e-10, help="relative overlap tolerance (1e-10)")
+    p.add_argument("--tolerance", type=OVERLAP_TOLERANCE.arg, default=1e-10,
+                   help="relative overlap tolerance, 0 ... 1 (1e-10)")
     p.set_defaults(func=_check)
 
     from ..formats import FORMATS, READABLE
@@ -46,7 +50,7 @@ def register(sub) -> None:
                        description=f"Formats: {formats}.")
     p.add_argument("path", type=Path, help="input file (packing-generation: its folder or packing.xyzd)")
     p.add_argument("--format", choices=READABLE, default=None, help="input format (default: from the suffix)")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output packing file (.h5)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--tolerance", type=finite_float, default=1e-10,
                    help="relative overlap tolerance (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
     p.add_argument("--box", type=finite_float, default=None,
@@ -59,6 +63,7 @@ def _seed(args) -> int:
     from ..packing_io import write_packing
     from ..seeding import poisson_packing
 
+    check_outputs({"-o/--output": args.output})
     packing = poisson_packing(args.n, args.sigma, args.seed, phi_nominal=args.phi_nominal, dim=args.dim)
     write_packing(args.output, packing)
     print(f"{args.output}: N={packing.n} d={packing.dim} sigma={args.sigma:g} seed={args.seed} phi={packing.phi:.3e}")
@@ -123,10 +128,16 @@ def _check(args) -> int:
 
 def _export(args) -> int:
     from ..formats import FORMATS, default_output, write
+    from ..formats.packing_generation import CONF, NFO, XYZD
     from ..packing_io import read_packing
 
-    packing = read_packing(args.path)
     out = args.output or default_output(args.path, args.format)
+    name = "-o/--output" if args.output else "the default output"
+    if args.format == "packing-generation":  # a folder of three files
+        check_output_dir(name, out, inputs={"path": args.path}, files=(XYZD, NFO, CONF))
+    else:
+        check_outputs({name: out}, inputs={"path": args.path})
+    packing = read_packing(args.path)
     written = write(packing, out, args.format)
     note = f", box scaled from L = {packing.box!r} to 1" if args.format == "calippso-jl" else ""
     print(f"{', '.join(map(str, written))}: {FORMATS[args.format].description}, {packing.n} spheres{note}")
@@ -136,9 +147,14 @@ def _export(args) -> int:
 def _import(args) -> int:
     from ..errors import InputError, require
     from ..formats import guess_format, read
+    from ..formats.packing_generation import file_set
     from ..packing_io import write_packing
 
     fmt = args.format or guess_format(args.path)
+    inputs = {"path": args.path}
+    if fmt == "packing-generation":  # the folder's three files are all inputs
+        inputs.update(zip(("packing.xyzd", "packing.nfo", "generation.conf"), file_set(args.path)))
+    check_outputs({"-o/--output": args.output}, inputs=inputs)
     require(args.tolerance >= 0, "--tolerance", args.tolerance, "must be >= 0")
     options = {}
     if args.box is not None:

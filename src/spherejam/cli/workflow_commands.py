@@ -4,29 +4,32 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import InputError, PackingFileError
+from ..output_paths import check_output_dir, check_outputs, figure_stem, output_file
 from . import finite_float
 
 
 def register(sub) -> None:
     p = sub.add_parser("manifest", help="record a validated experiment config (JSON) for the dataset builder")
     p.add_argument("--config-json", required=True, help="the workflow's config as a JSON string")
-    p.add_argument("-o", "--output", type=Path, required=True)
+    p.add_argument("-o", "--output", type=output_file, required=True)
     p.set_defaults(func=_manifest)
 
     p = sub.add_parser("dataset", help="assemble results/dataset.nc from an experiment manifest")
     p.add_argument("manifest", type=Path, help="experiment.json written by the workflow")
-    p.add_argument("-o", "--output", type=Path, required=True, help="output netCDF file")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output netCDF file")
     p.set_defaults(func=_dataset)
 
     p = sub.add_parser("tables", help="write Tables 2-4 (CSV, Markdown, LaTeX) from a dataset")
     p.add_argument("dataset", type=Path)
-    p.add_argument("--outdir", type=Path, required=True)
+    p.add_argument("--outdir", type=str, required=True, help="folder of the table files (made if missing)")
     p.set_defaults(func=_tables)
 
     p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
     p.add_argument("name", help="fig2, fig3, fig4, fig5, fig6, fig7, structure or forces")
     p.add_argument("dataset", type=Path)
-    p.add_argument("-o", "--output", type=Path, required=True, help="output stem (writes STEM.png and STEM.pdf)")
+    p.add_argument("-o", "--output", type=str, required=True,
+                   help="output stem (writes STEM.png and STEM.pdf); a folder (DIR/) writes DIR/NAME.png and .pdf")
     p.set_defaults(func=_figure)
 
     p = sub.add_parser("browse", help="summarise, filter and export an archived results dataset")
@@ -37,9 +40,9 @@ def register(sub) -> None:
     p.add_argument("--rate-max", type=finite_float, help="only gamma <= this")
     p.add_argument("--columns", help="comma-separated variables to show (default: a standard set)")
     p.add_argument("--grid", action="store_true", help="show the validation-grid runs instead")
-    p.add_argument("--csv", type=Path, help="export the selection as CSV")
+    p.add_argument("--csv", type=output_file, help="export the selection as CSV")
     p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
-    p.add_argument("-o", "--output", type=Path, help="figure output stem (default: ./<figure>)")
+    p.add_argument("-o", "--output", type=str, help="figure output stem or folder (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
     p.add_argument("--packing", metavar="KEY",
                    help="everything the dataset holds for one packing (key as ls/sigma0.1/rate0.5/r0) and its files")
@@ -52,12 +55,14 @@ def _manifest(args) -> int:
     import json
 
     from ..dataset import write_manifest
-    from ..errors import InputError
 
+    check_outputs({"-o/--output": args.output})
     try:
         config = json.loads(args.config_json)
     except json.JSONDecodeError as exc:
         raise InputError(f"--config-json: not valid JSON ({exc})") from None
+    if not isinstance(config, dict):
+        raise InputError(f"--config-json: a JSON {type(config).__name__}, expected an object of config keys")
     write_manifest(config, args.output)
     print(f"{args.output}: experiment with {len(config.get('sigmas', []))} sigmas, N = {config.get('n')}")
     return 0
@@ -66,6 +71,7 @@ def _manifest(args) -> int:
 def _dataset(args) -> int:
     from ..dataset import build_dataset, write_dataset
 
+    check_outputs({"-o/--output": args.output}, inputs={"manifest": args.manifest})
     ds = build_dataset(args.manifest)
     write_dataset(ds, args.output)
     print(f"{args.output}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
@@ -75,21 +81,44 @@ def _dataset(args) -> int:
 
 def _tables(args) -> int:
     from ..dataset import open_dataset
-    from ..tables import write_tables
+    from ..tables import TABLE_FILES, write_tables
 
-    for path in write_tables(open_dataset(args.dataset), args.outdir):
+    outdir = check_output_dir("--outdir", args.outdir, inputs={"dataset": args.dataset}, files=TABLE_FILES)
+    ds = open_dataset(args.dataset)
+    try:
+        paths = write_tables(ds, outdir)
+    except KeyError as exc:
+        raise PackingFileError(f"{args.dataset}: no variable {exc} (not a complete spherejam dataset)") from None
+    for path in paths:
         print(path)
     return 0
 
 
 def _figure(args) -> int:
     from ..dataset import open_dataset
-    from ..figures import draw, save_figure
+    from ..figures import FIGURES, draw, save_figure
 
+    if args.name not in FIGURES:
+        raise InputError(f"figure={args.name!r}: must be one of {', '.join(FIGURES)}")
+    stem, outputs = _figure_outputs(args.output, args.name)
+    check_outputs(outputs, inputs={"dataset": args.dataset})
     ds = open_dataset(args.dataset)
-    for path in save_figure(draw(args.name, ds), args.output):
+    for path in save_figure(_draw(draw, args.name, ds, args.dataset), stem):
         print(path)
     return 0
+
+
+def _figure_outputs(output: str, name: str) -> tuple[Path, dict[str, Path]]:
+    """The figure's stem (a folder gets NAME inside it) and its two files, by argument, for check_outputs."""
+    stem = figure_stem(output, name)
+    return stem, {f"-o/--output ({ext})": stem.with_name(f"{stem.name}.{ext}") for ext in ("png", "pdf")}
+
+
+def _draw(draw, name: str, ds, dataset: Path):
+    try:
+        return draw(name, ds)
+    except KeyError as exc:
+        raise PackingFileError(f"{dataset}: no variable {exc} (not a complete spherejam dataset)") from None
 
 
 DEFAULT_COLUMNS = ("phi", "phi_J", "pressure_J", "mls_collisions", "mls_wall_time", "z_nonrattler",
@@ -104,8 +133,18 @@ def _browse(args) -> int:
     import pandas as pd
 
     from ..dataset import open_dataset
-    from ..errors import InputError
 
+    outputs, stem = {"--csv": args.csv}, None
+    if args.figure:
+        from ..figures import FIGURES
+
+        if args.figure not in FIGURES:
+            raise InputError(f"--figure={args.figure!r}: must be one of {', '.join(FIGURES)}")
+        stem, figure_files = _figure_outputs(args.figure if args.output is None else args.output, args.figure)
+        outputs.update(figure_files)
+    elif args.output is not None:
+        raise InputError("-o/--output: only with --figure")
+    check_outputs(outputs, inputs={"dataset": args.dataset})
     ds = open_dataset(args.dataset)
     if args.packing is not None or args.plot:
         return _browse_packing(args, ds)
@@ -156,7 +195,7 @@ def _browse(args) -> int:
     if args.figure:
         from ..figures import draw, save_figure
 
-        for path in save_figure(draw(args.figure, ds), args.output or Path(args.figure)):
+        for path in save_figure(_draw(draw, args.figure, ds, args.dataset), stem):
             print(path)
     return 0
 
