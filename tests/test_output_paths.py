@@ -42,6 +42,7 @@ def files(tmp_path_factory):
 
     d = tmp_path_factory.mktemp("files")
     assert main(["seed", "--n", "30", "--seed", "3", "-o", str(d / "p.h5")]) == 0
+    assert main(["export", str(d / "p.h5"), "--format", "lammps", "-o", str(d / "p.data")]) == 0
     (d / "abs.json").write_text(json.dumps({"config": {}, "config_hash": "x"}))
     ds = xr.Dataset({"phi": ("packing", np.array([0.6]))}, attrs={"config": "{}"})
     ds.to_netcdf(d / "ds.nc", engine="h5netcdf")
@@ -51,6 +52,8 @@ def files(tmp_path_factory):
 
 SAME_PATH = [  # (argv with IN for the input and OUT for the output; the argument the error must name)
     (["export", "IN", "-o", "IN"], "-o/--output"),
+    (["export", "IN", "--format", "gsd", "-o", "IN"], "-o/--output"),
+    (["render", "IN", "-o", "IN"], "-o/--output"),
     (["ls", "IN", "--rate", "0.1", "-o", "IN"], "-o/--output"),
     (["mls", "IN", "-o", "IN"], "-o/--output"),
     (["fb", "IN", "--rate", "0.01", "-o", "IN"], "-o/--output"),
@@ -106,6 +109,11 @@ WRITERS = [  # every command that writes, with OUT in the place of the bad path
     ["calippso", "IN", "-o", "OUT", "--summary", "s.json"],
     ["analyze", "IN", "-o", "OUT"],
     ["export", "IN", "-o", "OUT"],
+    ["export", "IN", "--format", "lammps", "-o", "OUT"],
+    ["export", "IN", "--format", "packing-generation", "-o", "OUT"],
+    ["import", "DATA", "-o", "OUT"],
+    ["render", "IN", "-o", "OUT"],
+    ["browse", "NC", "--packing", "ls/sigma0/rate1/r0", "--plot", "-o", "OUT"],
     ["ls", "IN", "--rate", "0.1", "-o", "ok.h5", "--checkpoint", "OUT"],
     ["fb", "IN", "--rate", "0.01", "-o", "ok.h5", "--checkpoint", "OUT"],
     ["manifest", "--config-json", "{}", "-o", "OUT"],
@@ -118,9 +126,10 @@ WRITERS = [  # every command that writes, with OUT in the place of the bad path
 
 
 def _folder_wanted(argv, bad):
-    """--outdir, and a figure's -o, take a folder (tested apart)."""
+    """--outdir, a figure's -o and packing-generation's -o take a folder (tested apart)."""
     folder = bad in ("a directory", "trailing slash")
-    return folder and (argv[0] == "tables" or (argv[0] in ("figure", "browse") and "-o" in argv))
+    return folder and (argv[0] == "tables" or (argv[0] in ("figure", "browse") and "-o" in argv)
+                       or "packing-generation" in argv)
 
 
 @pytest.mark.parametrize("argv, bad", [(a, b) for a in WRITERS for b in BAD_OUTPUTS if not _folder_wanted(a, b)],
@@ -129,7 +138,8 @@ def test_outputs_are_checked_before_any_work(files, tmp_path, monkeypatch, argv,
     monkeypatch.chdir(tmp_path)
     (tmp_path / "regular").write_text("x")
     out, why = BAD_OUTPUTS[bad]
-    subst = {"IN": files / "p.h5", "JSON": files / "abs.json", "NC": files / "ds.nc", "OUT": out}
+    subst = {"IN": files / "p.h5", "JSON": files / "abs.json", "NC": files / "ds.nc", "DATA": files / "p.data",
+             "OUT": out}
     code, err = cli(*[subst.get(a, a) for a in argv])
     assert code == 2 and len(err) == 1, err
     option = argv[argv.index("OUT") - 1]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..output_paths import check_output_dir, check_outputs, output_file
 from ..validation import FIELDS, OVERLAP_TOLERANCE
-from . import EXIT_FAILED, seed_int
+from . import EXIT_FAILED, finite_float, seed_int
 
 
 def register(sub) -> None:
@@ -42,7 +42,7 @@ def register(sub) -> None:
                        description=f"Formats: {formats}.")
     p.add_argument("path", type=Path)
     p.add_argument("--format", choices=tuple(FORMATS), default="xyz", help="output format (default xyz)")
-    p.add_argument("-o", "--output", type=Path,
+    p.add_argument("-o", "--output", type=str,  # str: a trailing "/" must reach the output check
                    help="output path (default: input with the format's suffix; packing-generation: a folder)")
     p.set_defaults(func=_export)
 
@@ -51,8 +51,8 @@ def register(sub) -> None:
     p.add_argument("path", type=Path, help="input file (packing-generation: its folder or packing.xyzd)")
     p.add_argument("--format", choices=READABLE, default=None, help="input format (default: from the suffix)")
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
-    p.add_argument("--tolerance", type=finite_float, default=1e-10,
-                   help="relative overlap tolerance (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
+    p.add_argument("--tolerance", type=OVERLAP_TOLERANCE.arg, default=1e-10,
+                   help="relative overlap tolerance, 0 ... 1 (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
     p.add_argument("--box", type=finite_float, default=None,
                    help="calippso-jl only: side L of the periodic cube, which the file does not hold (default 1)")
     p.add_argument("--frame", type=int, default=None, help="gsd only: frame to read (default -1, the last)")
@@ -131,14 +131,14 @@ def _export(args) -> int:
     from ..formats.packing_generation import CONF, NFO, XYZD
     from ..packing_io import read_packing
 
-    out = args.output or default_output(args.path, args.format)
-    name = "-o/--output" if args.output else "the default output"
+    out = args.output if args.output is not None else default_output(args.path, args.format)
+    name = "-o/--output" if args.output is not None else "the default output"
     if args.format == "packing-generation":  # a folder of three files
         check_output_dir(name, out, inputs={"path": args.path}, files=(XYZD, NFO, CONF))
     else:
         check_outputs({name: out}, inputs={"path": args.path})
     packing = read_packing(args.path)
-    written = write(packing, out, args.format)
+    written = write(packing, Path(out), args.format)
     note = f", box scaled from L = {packing.box!r} to 1" if args.format == "calippso-jl" else ""
     print(f"{', '.join(map(str, written))}: {FORMATS[args.format].description}, {packing.n} spheres{note}")
     return 0

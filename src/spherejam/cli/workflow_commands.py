@@ -42,7 +42,7 @@ def register(sub) -> None:
     p.add_argument("--grid", action="store_true", help="show the validation-grid runs instead")
     p.add_argument("--csv", type=output_file, help="export the selection as CSV")
     p.add_argument("--figure", help="redraw this figure from the (unfiltered) dataset")
-    p.add_argument("-o", "--output", type=str, help="figure output stem or folder (default: ./<figure>)")
+    p.add_argument("-o", "--output", type=str, help="figure (or --plot) output stem or folder (default: ./<figure>)")
     p.add_argument("--tables", action="store_true", help="print Tables 2-4")
     p.add_argument("--packing", metavar="KEY",
                    help="everything the dataset holds for one packing (key as ls/sigma0.1/rate0.5/r0) and its files")
@@ -142,12 +142,16 @@ def _browse(args) -> int:
             raise InputError(f"--figure={args.figure!r}: must be one of {', '.join(FIGURES)}")
         stem, figure_files = _figure_outputs(args.figure if args.output is None else args.output, args.figure)
         outputs.update(figure_files)
+    elif args.plot and args.packing is not None:
+        default = f"mls_{args.packing.replace('/', '_')}"
+        stem, figure_files = _figure_outputs(default if args.output is None else args.output, default)
+        outputs.update(figure_files)
     elif args.output is not None:
-        raise InputError("-o/--output: only with --figure")
+        raise InputError("-o/--output: only with --figure or --plot")
     check_outputs(outputs, inputs={"dataset": args.dataset})
     ds = open_dataset(args.dataset)
     if args.packing is not None or args.plot:
-        return _browse_packing(args, ds)
+        return _browse_packing(args, ds, stem)
     cfg = json.loads(ds.attrs["config"])
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
     print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}, {ds.sizes['packing']} packings, "
@@ -200,7 +204,7 @@ def _browse(args) -> int:
     return 0
 
 
-def _browse_packing(args, ds) -> int:
+def _browse_packing(args, ds, stem: Path | None) -> int:
     from ..errors import InputError
     from ..packing_record import describe, locate, mls_history_figure
 
@@ -217,7 +221,6 @@ def _browse_packing(args, ds) -> int:
                 found.results / "packings" / args.packing)
             raise InputError(f"--plot: the MLS output jammed.h5 of {args.packing} is not there (looked in {where}); "
                              "copy the packing files next to the dataset")
-        stem = args.output or Path(f"mls_{args.packing.replace('/', '_')}")
         fig = mls_history_figure(found.files["jammed.h5"], title=f"MLS history of {args.packing}")
         for path in save_figure(fig, stem):
             print(path)
