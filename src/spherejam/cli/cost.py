@@ -22,6 +22,7 @@ def _cost(args) -> int:
 
     from ..cluster_resources import load_configs, print_plan
     from ..errors import InputError
+    from ..validation import check_config
 
     for path in args.configs:
         if not path.is_file():
@@ -38,5 +39,6 @@ def _cost(args) -> int:
     config = load_configs(*args.configs)
     if "n" not in config:
         raise InputError(f"config: no 'n' (spheres per packing) in {', '.join(map(str, args.configs))}")
+    check_config(config)  # the workflow's limits (finite numbers, ranges), so the plan is of a config that runs
     print_plan(config)
     return 0
