@@ -40,3 +40,18 @@ def test_extra_rates_apply_to_their_sigmas_only():
     cfg["ls"]["extra_rates"] = [{"sigmas": [0.2], "rates": [1e-3]}]
     with pytest.raises(InputError, match="extra_rates.sigmas=0.2"):
         Experiment(cfg)
+
+
+def test_reproduction_config_is_complete_and_within_its_budget():
+    """config/reproduction.yaml stands alone (every section) and the cost model keeps it within 8 CPU-hours."""
+    from spherejam.cluster_resources import plan
+
+    cfg = yaml.safe_load((ROOT / "config" / "reproduction.yaml").read_text())
+    schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())
+    assert set(cfg) == set(schema["properties"])
+    table = plan(cfg)
+    assert sum(row["cpu_hours"] for row in table.values()) <= 8.0
+    exp = Experiment(cfg)
+    fast = [r for r in exp.runs() if r.protocol == "ls" and 1 / r.rate < 5]
+    assert len(fast) == 2 * 16 and not exp.grid_runs()
+    assert len(exp.rates_for("ls", 0.0)) == 16 and len(exp.rates_for("ls", 0.3)) == 16 + 14

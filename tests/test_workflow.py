@@ -19,7 +19,7 @@ def snakemake(*args, cwd=ROOT, timeout=1200):
     return subprocess.run([*SNAKEMAKE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
 
 
-@pytest.mark.parametrize("config", ["config.yaml", "tiny.yaml", "paper.yaml"])
+@pytest.mark.parametrize("config", ["config.yaml", "tiny.yaml", "paper.yaml", "reproduction.yaml"])
 def test_dry_run(config, tmp_path):
     cfg = yaml.safe_load((ROOT / "config" / config).read_text())
     cfg["results"] = str(tmp_path / "results")
