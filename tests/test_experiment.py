@@ -19,6 +19,10 @@ def test_grid_rate_outside_ls_rates_is_an_error_naming_it():
     cfg["validation_grid"]["ls_rates"] = [0.5, 0.3]
     with pytest.raises(InputError, match=r"validation_grid.ls_rates=0.3: not one of ls.rates \(nearest: 0.5\)"):
         Experiment(cfg)
+    cfg["validation_grid"]["ls_rates"] = [0.5]
+    cfg["validation_grid"]["sigmas"] = [0.2]
+    with pytest.raises(InputError, match=r"validation_grid.sigmas=0.2: not one of sigmas"):
+        Experiment(cfg)
     cfg["validation_grid"]["enabled"] = False
     assert Experiment(cfg).grid_runs() == []  # a disabled grid is not checked
 

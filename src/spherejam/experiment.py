@@ -129,6 +129,8 @@ class Experiment:
         self.grid = grid
         if self.grid_enabled:
             for sigma in grid.get("sigmas", []):
+                if fmt(sigma) not in known:  # its LS packings would not be in the experiment either
+                    raise InputError(f"validation_grid.sigmas={fmt(sigma)}: not one of sigmas")
                 check_grid_rates(rate_grid(grid.get("ls_rates", [])), self.rates_for("ls", float(sigma)))
 
     def rates_for(self, protocol: str, sigma: float) -> list[float]:
