@@ -5,7 +5,8 @@ also LS at a slow rate (1/gamma >= 100) -> MLS. Prints, per packing, phi after L
 wall time, the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
 :func:`spherejam.contacts.analyze_contacts`, and the reference code's fixed 1e-7) and the crystalline fraction
 (:func:`spherejam.structure.crystalline_fraction`: monodisperse searches can nucleate crystals, paper §IV.A), then a
-summary against the paper's band for sigma = 0, Table 3: phi_J in [0.6356, 0.6406] for fast LS packings of N = 1e4.
+summary against the paper's band of its sigma (Table 3, :mod:`spherejam.paper_reference`; sigma = 0: phi_J in
+[0.6356, 0.6406] for fast packings of N = 1e4, the minimum being the one surviving phi_min row, LS or FB).
 
     python benchmarks/mls_science.py --n 1000 --seeds 1 2 3 4 5 --slow-seeds 1
     python benchmarks/mls_science.py --n 10000 --seeds 1 --checkpoint-dir runs/   # ~1.5 h per packing, one core
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spherejam import paper_reference
 from spherejam.closest_jamming import find_closest_jamming
 from spherejam.contacts import analyze_contacts
 from spherejam.lubachevsky_stillinger import run_ls
@@ -33,9 +35,13 @@ from spherejam.packing_io import write_packing
 from spherejam.seeding import poisson_packing
 from spherejam.structure import crystalline_fraction
 
-#: Paper Table 3, fast LS compressions at N = 10^4: sigma -> (phi_min^fast, phi_max^fast).
-PAPER_BAND_LS = {0.0: (0.6356, 0.6406), 0.05: (0.6364, 0.6414), 0.1: (0.6388, 0.6437), 0.15: (0.6428, 0.6485),
-                 0.2: (0.6469, 0.6536), 0.25: (0.6540, 0.6599), 0.3: (0.6593, 0.6675)}
+def paper_band(sigma: float) -> tuple[float, float] | None:
+    """The paper's Table 3 band at sigma: (surviving phi_min^fast row, LS or FB; LS phi_max^fast), None if absent."""
+    mins = paper_reference.table3_min_unattributed()
+    maxs = paper_reference.table3()
+    lo = mins[np.isclose(mins.sigma, sigma)].phi_min
+    hi = maxs[np.isclose(maxs.sigma, sigma) & (maxs.protocol == "LS")].phi_max
+    return (float(lo.iloc[0]), float(hi.iloc[0])) if len(lo) and len(hi) else None
 
 
 def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | None = None,
@@ -117,7 +123,7 @@ def main() -> None:
                     f.write(json.dumps(row, default=lambda o: o.item() if hasattr(o, "item") else str(o)) + "\n")
     fast = [r["phi_J"] for r in rows if r["kind"] == "fast"]
     if fast:
-        band = PAPER_BAND_LS.get(round(args.sigma, 2))
+        band = paper_band(args.sigma)
         paper = f"paper sigma={args.sigma:g}, N=1e4: [{band[0]}, {band[1]}]" if band else "no paper band at this sigma"
         print(f"fast: phi_J mean {np.mean(fast):.5f} min {np.min(fast):.5f} max {np.max(fast):.5f} ({paper})")
     slow = [r["phi_J"] - r["phi_ls"] for r in rows if r["kind"] == "slow"]

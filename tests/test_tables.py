@@ -68,7 +68,7 @@ def test_tables_recover_known_values(tmp_path):
     rcp = np.mean([t3.loc[0.3, "ls_phi_max_fast"], t3.loc[0.3, "fb_phi_max_fast"]])
     assert t4.loc[0.3, "phi_RCP"] == pytest.approx(rcp)
     paths = write_tables(ds, tmp_path)
-    assert len(paths) == 9 and all(p.stat().st_size > 0 for p in paths)
+    assert len(paths) == 11 and all(p.stat().st_size > 0 for p in paths)
     assert "\\begin{tabular}" in (tmp_path / "table2.tex").read_text()
     assert "± " in (tmp_path / "table2.md").read_text()
 
@@ -77,3 +77,72 @@ def test_tables_recover_known_values(tmp_path):
 def test_every_figure_draws(tmp_path, name):
     out = figures.save_figure(figures.draw(name, synthetic_dataset()), tmp_path / name)
     assert [p.suffix for p in out] == [".png", ".pdf"] and all(p.stat().st_size > 1000 for p in out)
+
+
+def _with_config(ds, **sections):
+    cfg = json.loads(ds.attrs["config"])
+    for key, value in sections.items():
+        cfg[key] = {**cfg.get(key, {}), **value}
+    ds.attrs["config"] = json.dumps(cfg)
+    return ds
+
+
+def test_fit_with_too_few_points_is_not_estimable(tmp_path):
+    ds = _with_config(synthetic_dataset(), fits={"ls_initial": 6, "min_points": 8})
+    t2 = compute_tables(ds)["table2"].set_index("curve")
+    row = t2.loc["LS, initial"]
+    assert not row.estimable and np.isnan(row.phi_gcp) and row.n_points == 6
+    assert row.status.startswith("not estimable (n = 6")
+    assert np.isfinite(row.phi_gcp_fit)  # the fit itself is kept for inspection, not reported
+    assert t2.loc["FB, initial"].estimable  # 10 points
+    write_tables(ds, tmp_path)
+    assert "not estimable (n = 6" in (tmp_path / "table2.md").read_text()
+    assert "not estimable (n = 6" in (tmp_path / "table2.tex").read_text()
+
+
+def test_fit_with_a_wide_interval_is_not_estimable():
+    ds = synthetic_dataset()
+    rng = np.random.default_rng(0)
+    ds["phi"] = ("packing", ds.phi.values + rng.normal(0, 0.02, ds.sizes["packing"]))
+    t2 = compute_tables(_with_config(ds, fits={"max_half_width": 0.005}))["table2"].set_index("curve")
+    row = t2.loc["LS, initial"]
+    assert row.half_width_fit > 0.005 and not row.estimable and "half-width" in row.status
+    relaxed = compute_tables(_with_config(ds, fits={"max_half_width": None}))["table2"].set_index("curve")
+    assert relaxed.loc["LS, initial"].estimable
+
+
+def test_paper_columns_and_gcp_below_rcp_flag(tmp_path):
+    ds = synthetic_dataset()
+    # push the fast phi_J of sigma = 0.3 above the GCP: too little data would look like this
+    fast = (ds.sigma.values == 0.3) & (ds.inverse_rate.values < 5) & (ds.protocol.values == "ls")
+    phi_j = ds.phi_J.values.copy()
+    phi_j[fast] = 0.69
+    ds["phi_J"] = ("packing", phi_j)
+    t = compute_tables(ds)
+    t4 = t["table4"].set_index("sigma")
+    assert t4.loc[0.3, "gcp_below_rcp"] and not t4.loc[0.0, "gcp_below_rcp"]
+    assert t4.loc[0.3, "phi_RCP_paper"] == 0.6676 and t4.loc[0.3, "phi_GCP_paper_derived"]
+    assert t4.loc[0.3, "phi_RCP_minus_paper"] == pytest.approx(t4.loc[0.3, "phi_RCP"] - 0.6676)
+    t2 = t["table2"].set_index("curve")
+    assert t2.loc["LS, initial", "paper_phi_gcp"] == 0.6777
+    assert t2.loc["LS, initial", "minus_paper"] == pytest.approx(t2.loc["LS, initial", "phi_gcp"] - 0.6777)
+    ratio = t2.loc["LS, initial", "minus_paper_in_half_widths"]
+    assert ratio == pytest.approx(t2.loc["LS, initial", "minus_paper"] / t2.loc["LS, initial", "half_width"])
+    assert t2.gcp_below_rcp.all()
+    write_tables(ds, tmp_path)
+    comparison = (tmp_path / "comparison.md").read_text()
+    assert "Flagged (φ_GCP < φ_RCP" in comparison and "Table 4 σ = 0.3" in comparison
+    assert "φ_GCP < φ_RCP" in (tmp_path / "table4.md").read_text()
+    for name in ("table2", "table3", "table4"):
+        assert "paper" in (tmp_path / f"{name}.md").read_text() and "paper" in (tmp_path / f"{name}.tex").read_text()
+
+
+def test_quantile_method_reports_the_alpha_quantile():
+    ds = _with_config(synthetic_dataset(), bands={"method": "quantile", "alpha": 0.9})
+    t3 = compute_tables(ds)["table3"].set_index("sigma")
+    fb = np.sort(ds.phi_J.values[(ds.protocol.values == "fb") & (ds.sigma.values == 0.3)
+                                 & (ds.inverse_rate.values < 1000)])
+    assert len(fb) == 10
+    assert t3.loc[0.3, "fb_phi_high"] == fb[8]  # ceil(0.9 * 10) = 9th value
+    assert t3.loc[0.3, "fb_phi_low"] == fb[1]  # floor(0.1 * 10) + 1 = 2nd value
+    assert t3.loc[0.3, "fb_phi_max_fast"] == fb[-1]

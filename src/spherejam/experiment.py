@@ -45,6 +45,23 @@ def rate_grid(spec) -> list[float]:
     return [float(r) for r in spec]
 
 
+def check_grid_rates(grid_rates: list[float], ls_rates: list[float]) -> None:
+    """The validation grid re-jams LS packings of the experiment (Fig. 3 is compared with Fig. 2b on the same
+    packings), so every rate of ``validation_grid.ls_rates`` must be one of ``ls.rates``, to the digits of the file
+    paths (:func:`fmt`). A rate that is not is an error naming it and the nearest rate of ``ls.rates``; it is not
+    replaced silently, and no packing outside the experiment is generated."""
+    import math
+
+    known = {fmt(r) for r in ls_rates}
+    for rate in grid_rates:
+        if fmt(rate) not in known:
+            nearest = min(ls_rates, key=lambda r: abs(math.log(r / rate)))
+            raise InputError(
+                f"validation_grid.ls_rates={fmt(rate)}: not one of ls.rates (nearest: {fmt(nearest)}); the grid "
+                "re-jams packings of the experiment, so its rates must be taken from ls.rates"
+            )
+
+
 def config_hash(config: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -94,11 +111,39 @@ class Experiment:
             self.sigmas = [float(s) for s in config["sigmas"]]
             self.replicas = int(config.get("replicas", 1))
             self.rates = {p: rate_grid(config[p]["rates"]) for p in PROTOCOLS}
+            # extra rates for some sigmas only (e.g. the slow series of Table 2, which sigma = 0 does not use)
+            self.extra_rates = {
+                p: [([float(s) for s in e["sigmas"]], rate_grid(e["rates"])) for e in config[p].get("extra_rates", [])]
+                for p in PROTOCOLS
+            }
             grid = config.get("validation_grid", {})
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"config: missing or malformed key {exc}") from None
+        known = {fmt(s) for s in self.sigmas}
+        for p in PROTOCOLS:
+            for sigmas, _ in self.extra_rates[p]:
+                for s in sigmas:
+                    if fmt(s) not in known:
+                        raise InputError(f"{p}.extra_rates.sigmas={fmt(s)}: not one of sigmas")
         self.grid_enabled = bool(grid.get("enabled", False))
         self.grid = grid
+        if self.grid_enabled:
+            for sigma in grid.get("sigmas", []):
+                if fmt(sigma) not in known:  # its LS packings would not be in the experiment either
+                    raise InputError(f"validation_grid.sigmas={fmt(sigma)}: not one of sigmas")
+                check_grid_rates(rate_grid(grid.get("ls_rates", [])), self.rates_for("ls", float(sigma)))
+
+    def rates_for(self, protocol: str, sigma: float) -> list[float]:
+        """Compression rates gamma of one protocol at one sigma: ``rates`` plus the ``extra_rates`` of that sigma,
+        in the order given, without repeats (same digits as the file paths)."""
+        rates = list(self.rates[protocol])
+        for sigmas, extra in self.extra_rates[protocol]:
+            if any(fmt(sigma) == fmt(s) for s in sigmas):
+                rates += extra
+        unique: dict[str, float] = {}
+        for r in rates:
+            unique.setdefault(fmt(r), r)
+        return list(unique.values())
 
     # --- runs ----------------------------------------------------------------------------------------------------
     def runs(self, protocol: str | None = None) -> list[Run]:
@@ -107,7 +152,7 @@ class Experiment:
             Run(p, s, r, k)
             for p in protocols
             for s in self.sigmas
-            for r in self.rates[p]
+            for r in self.rates_for(p, s)
             for k in range(self.replicas)
         ]
 

@@ -1,10 +1,20 @@
-"""Tables 2-4 of the paper from the results dataset, written as CSV, Markdown and LaTeX.
+"""Tables 2-4 of the paper from the results dataset, next to the paper's values, written as CSV, Markdown and LaTeX.
 
 * Table 2: phi_GCP from cubic fits (:mod:`spherejam.fits`) of four curves (LS/FB x initial phi / densified
-  phi_J) per sigma > 0.
-* Table 3: min and max of phi_J over fast compressions (LS 1/gamma < 5, FB 1/gamma < 10^3 by default).
-* Table 4: phi_LT = mean of the two minima, phi_RCP = mean of the two maxima, phi_GCP = mean of the four Table 2
+  phi_J) per sigma > 0. A fit with fewer than ``fits.min_points`` packings, or a confidence half-width above
+  ``fits.max_half_width``, is "not estimable (n = ...)": its phi_GCP is NaN and ``status`` says why.
+* Table 3: the band edges of phi_J over fast compressions (LS 1/gamma < 5, FB 1/gamma < 10^3 by default), by the
+  sample min/max and by the paper's alpha-quantiles (eq. 18), with order-statistic confidence intervals
+  (:mod:`spherejam.bands`). ``bands.method`` chooses which edge Tables 3-4 report; a band of fewer than
+  ``bands.min_packings`` packings is not estimable.
+* Table 4: phi_LT = mean of the LS and FB low edges, phi_RCP = mean of the high edges, phi_GCP = mean of the Table 2
   entries (for sigma = 0 the conventional value 0.65, as in the paper).
+
+Every row whose phi_GCP lies below the run's own phi_RCP (Table 4, and the Table 2 cells) is flagged
+(``gcp_below_rcp``): with enough data phi_GCP - phi_RCP ~ 0.01, so it signals too little data, not a result.
+
+Every table carries the paper's value (:mod:`spherejam.paper_reference`), ours - paper, and that difference in units
+of our confidence half-width. The statistics are described in docs/statistics.md.
 """
 
 from __future__ import annotations
@@ -16,7 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import paper_reference
 from .atomic import atomic_output
+from .bands import BAND_DEFAULTS, band_edges
 from .dataset import dataset_config
 from .errors import InputError
 from .fits import N_COEFFICIENTS, fit_gcp
@@ -28,8 +40,14 @@ TABLE2_ROWS = (
     ("LS, densified", "ls", "phi_J", "ls_densified"),
     ("FB, densified", "fb", "phi_J", "fb_densified"),
 )
-FIT_DEFAULTS = {"ls_initial": 125, "ls_densified": 80, "fb_initial": 300, "fb_densified": 300, "confidence": 0.95}
+FIT_DEFAULTS = {"ls_initial": 125, "ls_densified": 80, "fb_initial": 300, "fb_densified": 300, "confidence": 0.95,
+                "min_points": 8, "max_half_width": 0.005}
+#: Columns of an empty Table 2 (an experiment with sigma = 0 only).
+TABLE2_COLUMNS = ["curve", "protocol", "variable", "sigma", "phi_gcp", "half_width", "status", "n_points",
+                  "paper_phi_gcp", "paper_half_width", "minus_paper", "minus_paper_in_half_widths"]
 FAST_DEFAULTS = {"ls_max_inverse_rate": 5.0, "fb_max_inverse_rate": 1000.0}
+#: The paper's monodisperse phi_GCP (taken, not fitted).
+GCP_MONODISPERSE = 0.65
 
 
 def _frame(ds) -> pd.DataFrame:
@@ -49,9 +67,39 @@ def completed_phi_J(ds) -> np.ndarray:
     return phi_j
 
 
+def fit_settings(ds) -> dict:
+    return {**FIT_DEFAULTS, **dataset_config(ds).get("fits", {})}
+
+
+def band_settings(ds) -> dict:
+    return {**BAND_DEFAULTS, **dataset_config(ds).get("bands", {})}
+
+
+def not_estimable(n: int, why: str = "") -> str:
+    return f"not estimable (n = {n}{', ' + why if why else ''})"
+
+
+def _paper_row(frame: pd.DataFrame, sigma: float, **match) -> pd.Series | None:
+    sel = np.isclose(frame.sigma.values.astype(float), sigma)
+    for key, value in match.items():
+        sel &= frame[key].values == value
+    rows = frame[sel]
+    return rows.iloc[0] if len(rows) else None
+
+
+def _compare(ours: float, half_width: float, paper: float) -> tuple[float, float]:
+    """(ours - paper, (ours - paper) / half-width); NaN where a term is missing or the half-width is not positive."""
+    diff = ours - paper if math.isfinite(ours) and math.isfinite(paper) else math.nan
+    ratio = diff / half_width if math.isfinite(diff) and math.isfinite(half_width) and half_width > 0 else math.nan
+    return diff, ratio
+
+
 def table2(ds) -> pd.DataFrame:
-    """Long-format Table 2: one row per (curve, sigma > 0) with phi_GCP, half-width, points used."""
-    cfg = {**FIT_DEFAULTS, **dataset_config(ds).get("fits", {})}
+    """Long-format Table 2: one row per (curve, sigma > 0) with phi_GCP, half-width, points used, the paper's value."""
+    cfg = fit_settings(ds)
+    min_points = max(int(cfg["min_points"]), N_COEFFICIENTS + 1)
+    max_half = cfg.get("max_half_width")
+    paper = paper_reference.table2()
     df = _frame(ds)
     rows = []
     for label, protocol, var, key in TABLE2_ROWS:
@@ -59,23 +107,46 @@ def table2(ds) -> pd.DataFrame:
             if sigma == 0:
                 continue  # the paper does not fit sigma = 0 (crystallisation); Table 4 takes 0.65
             sub = df[(df.protocol == protocol) & (df.sigma == sigma)]
-            row = {"curve": label, "protocol": protocol, "variable": var, "sigma": sigma}
+            row = {"curve": label, "protocol": protocol, "variable": var, "sigma": sigma,
+                   "phi_gcp": math.nan, "half_width": math.nan, "status": ""}
+            n_avail = int(np.isfinite(sub[var]).sum())
             try:
                 fit = fit_gcp(sub.rate.values, sub[var].values, int(cfg[key]), float(cfg["confidence"]))
+            except InputError:
+                row.update(n_points=n_avail, status=not_estimable(n_avail))
+            else:
                 c = fit.coefficients
                 row.update(
-                    phi_gcp=fit.phi_gcp, half_width=fit.half_width, n_points=fit.n_points,
-                    min_inverse_rate=fit.min_inverse_rate, c0=c[0], c1=c[1], c2=c[2], c3=c[3],
+                    n_points=fit.n_points, min_inverse_rate=fit.min_inverse_rate, c0=c[0], c1=c[1], c2=c[2], c3=c[3],
+                    phi_gcp_fit=fit.phi_gcp, half_width_fit=fit.half_width,
                 )
-            except InputError:
-                row.update(phi_gcp=math.nan, half_width=math.nan, n_points=int(np.isfinite(sub[var]).sum()))
+                if fit.n_points < min_points:
+                    row["status"] = not_estimable(fit.n_points, f"fewer than {min_points} points")
+                elif not math.isfinite(fit.half_width):
+                    row["status"] = not_estimable(fit.n_points, "no confidence interval")
+                elif max_half is not None and fit.half_width > float(max_half):
+                    row["status"] = not_estimable(fit.n_points, f"half-width {fit.half_width:.2g} > {max_half:g}")
+                else:
+                    row.update(phi_gcp=fit.phi_gcp, half_width=fit.half_width)
+            ref = _paper_row(paper, sigma, method=label)
+            row["paper_phi_gcp"] = float(ref.phi_GCP) if ref is not None else math.nan
+            row["paper_half_width"] = float(ref.ci_half_width) if ref is not None else math.nan
+            row["minus_paper"], row["minus_paper_in_half_widths"] = _compare(
+                row["phi_gcp"], row["half_width"], row["paper_phi_gcp"])
             rows.append(row)
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows, columns=TABLE2_COLUMNS) if not rows else pd.DataFrame(rows)
+    out["estimable"] = out.status == ""
+    return out
 
 
 def table3(ds) -> pd.DataFrame:
-    """Per sigma and protocol: min and max phi_J over fast compressions, and how many packings."""
+    """Per sigma and protocol: the band of phi_J over fast compressions (min/max, alpha-quantiles with intervals),
+    the edge ``bands.method`` reports, and the paper's values."""
     cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    bands = band_settings(ds)
+    method, alpha, conf = bands["method"], float(bands["alpha"]), float(bands["confidence"])
+    paper = paper_reference.table3()
+    paper_min = paper_reference.table3_min_unattributed()
     df = _frame(ds)
     rows = []
     for sigma in sorted(df.sigma.unique()):
@@ -83,38 +154,98 @@ def table3(ds) -> pd.DataFrame:
         for protocol in ("ls", "fb"):
             limit = cfg[f"{protocol}_max_inverse_rate"]
             fast = df[(df.protocol == protocol) & (df.sigma == sigma) & (df.inverse_rate < limit)].phi_J.dropna()
-            row[f"{protocol}_phi_min_fast"] = fast.min() if len(fast) else math.nan
-            row[f"{protocol}_phi_max_fast"] = fast.max() if len(fast) else math.nan
-            row[f"{protocol}_n_fast"] = len(fast)
+            e = band_edges(fast.values, alpha, conf)
+            p = f"{protocol}_"
+            row[p + "n_fast"] = e.n
+            row[p + "phi_min_fast"] = e.phi_min
+            row[p + "phi_max_fast"] = e.phi_max
+            row[p + "phi_low_quantile"], (row[p + "phi_low_ci_low"], row[p + "phi_low_ci_high"]) = e.q_low, e.q_low_ci
+            row[p + "phi_high_quantile"], (row[p + "phi_high_ci_low"], row[p + "phi_high_ci_high"]) = (
+                e.q_high, e.q_high_ci)
+            ok = e.n >= int(bands["min_packings"])
+            row[p + "status"] = "" if ok else not_estimable(e.n, f"fewer than {int(bands['min_packings'])} packings")
+            ref = _paper_row(paper, sigma, protocol=protocol.upper())
+            ref_min = _paper_row(paper_min, sigma)
+            for side, paper_value in (
+                ("low", float(ref_min.phi_min) if ref_min is not None else math.nan),  # protocol unknown
+                ("high", float(ref.phi_max) if ref is not None else math.nan),
+            ):
+                value, half = e.edge(side, method) if ok else (math.nan, math.nan)
+                row[f"{p}phi_{side}"], row[f"{p}phi_{side}_half_width"] = value, half
+                row[f"{p}phi_{side}_paper"] = paper_value
+                row[f"{p}phi_{side}_minus_paper"], row[f"{p}phi_{side}_minus_paper_in_half_widths"] = _compare(
+                    value, half, paper_value)
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    out.attrs["method"] = method
+    return out
+
+
+def _mean_with_half_width(pairs) -> tuple[float, float, int]:
+    """Mean of the finite estimates, and its half-width from theirs in quadrature (NaN if any is missing)."""
+    pairs = [(v, h) for v, h in pairs if math.isfinite(v)]
+    if not pairs:
+        return math.nan, math.nan, 0
+    values, halves = zip(*pairs)
+    half = math.sqrt(sum(h * h for h in halves)) / len(halves) if all(math.isfinite(h) for h in halves) else math.nan
+    return float(np.mean(values)), half, len(pairs)
+
+
+def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -> pd.DataFrame:
+    """phi_LT, phi_RCP and phi_GCP per sigma with half-widths, the paper's values and the GCP < RCP flag."""
+    t2 = table2(ds) if t2 is None else t2
+    t3 = table3(ds) if t3 is None else t3
+    gcp0 = float(dataset_config(ds).get("gcp_monodisperse", GCP_MONODISPERSE))
+    paper = paper_reference.table4()
+    rows = []
+    for _, r in t3.iterrows():
+        sigma = r.sigma
+        row = {"sigma": sigma}
+        for col, side in (("phi_LT", "low"), ("phi_RCP", "high")):
+            row[col], row[f"{col}_half_width"], _ = _mean_with_half_width(
+                [(r[f"ls_phi_{side}"], r[f"ls_phi_{side}_half_width"]),
+                 (r[f"fb_phi_{side}"], r[f"fb_phi_{side}_half_width"])])
+        if sigma == 0:
+            row["phi_GCP"], row["phi_GCP_half_width"], n_fits = gcp0, math.nan, 0
+        else:
+            cells = t2[np.isclose(t2.sigma, sigma)] if len(t2) else t2
+            row["phi_GCP"], row["phi_GCP_half_width"], n_fits = _mean_with_half_width(
+                zip(cells.phi_gcp, cells.half_width)) if len(cells) else (math.nan, math.nan, 0)
+        row["gcp_fits_averaged"] = n_fits
+        row["gcp_below_rcp"] = bool(sigma != 0 and row["phi_GCP"] < row["phi_RCP"])
+        match = paper.index[np.isclose(paper.index.values, sigma)]
+        for col in ("phi_LT", "phi_RCP", "phi_GCP"):
+            ref = paper.loc[match[0]] if len(match) else None
+            row[f"{col}_paper"] = float(ref[col]) if ref is not None else math.nan
+            row[f"{col}_paper_derived"] = bool(ref[f"{col}_derived"]) if ref is not None else False
+            row[f"{col}_minus_paper"], row[f"{col}_minus_paper_in_half_widths"] = _compare(
+                row[col], row[f"{col}_half_width"], row[f"{col}_paper"])
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -> pd.DataFrame:
-    """phi_LT, phi_RCP and phi_GCP per sigma."""
-    t2 = table2(ds) if t2 is None else t2
-    t3 = table3(ds) if t3 is None else t3
-    gcp0 = float(dataset_config(ds).get("gcp_monodisperse", 0.65))
-    rows = []
-    for _, r in t3.iterrows():
-        sigma = r.sigma
-        if sigma == 0:
-            gcp, n_fits = gcp0, 0
-        else:
-            vals = t2[t2.sigma == sigma].phi_gcp.dropna()
-            gcp, n_fits = (vals.mean() if len(vals) else math.nan), len(vals)
-        rows.append({
-            "sigma": sigma,
-            "phi_LT": np.nanmean([r.ls_phi_min_fast, r.fb_phi_min_fast]) if r.ls_n_fast + r.fb_n_fast else math.nan,
-            "phi_RCP": np.nanmean([r.ls_phi_max_fast, r.fb_phi_max_fast]) if r.ls_n_fast + r.fb_n_fast else math.nan,
-            "phi_GCP": gcp,
-            "gcp_fits_averaged": n_fits,
-        })
-    return pd.DataFrame(rows)
+def _flag_table2(t2: pd.DataFrame, t4: pd.DataFrame) -> pd.DataFrame:
+    """Table 2 cells whose phi_GCP lies below the run's phi_RCP of the same sigma."""
+    t2 = t2.copy()
+    rcp = {float(s): v for s, v in zip(t4.sigma, t4.phi_RCP)}
+    t2["gcp_below_rcp"] = [bool(g < rcp.get(float(s), math.nan)) for s, g in zip(t2.sigma, t2.phi_gcp)]
+    return t2
 
+
+# --- human-readable layouts -------------------------------------------------------------------------------------
 
 def _fmt(x, digits=4) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def _signed(x, digits=4) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:+.{digits}f}"
+
+
+def _ratio(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    return f"{x:+.1f}" if abs(x) < 1e3 else f"{x:+.1e}"
 
 
 def _pm(value, half) -> str:
@@ -123,51 +254,116 @@ def _pm(value, half) -> str:
     return f"{value:.4f} ± {half:.2e}" if not math.isnan(half) else f"{value:.4f}"
 
 
-def formatted(name: str, t: pd.DataFrame) -> pd.DataFrame:
-    """The human-readable wide layout of a table (as in the paper)."""
+METHOD_LABELS = {"minmax": "sample min/max", "quantile": "α-quantile"}
+GCP_BELOW_RCP = "φ_GCP < φ_RCP: too little data"
+PAPER_MIN_NOTE = "paper: the surviving φ_min^fast row of Table 3 (LS or FB, not known which)"
+
+
+def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
+    """The human-readable layout of a table, with the paper's value, ours − paper and that in half-widths."""
     if name == "table2":
-        t = t.copy()
-        t["cell"] = [_pm(v, h) for v, h in zip(t.phi_gcp, t.half_width)]
-        wide = t.pivot(index="curve", columns="sigma", values="cell")
-        wide = wide.reindex([r[0] for r in TABLE2_ROWS])
-        wide.columns = [f"σ = {s:g}" for s in wide.columns]
-        return wide
+        rows = []
+        for _, r in t.iterrows():
+            rows.append({
+                "σ": f"{r.sigma:g}", "method": r.curve,
+                "φ_GCP (ours)": r.status if r.status else _pm(r.phi_gcp, r.half_width),
+                "n": int(r.n_points),
+                "paper": _pm(r.paper_phi_gcp, r.paper_half_width),
+                "ours − paper": _signed(r.minus_paper),
+                "(ours − paper) / half-width": _ratio(r.minus_paper_in_half_widths),
+                "flag": GCP_BELOW_RCP if r.get("gcp_below_rcp", False) else "",
+            })
+        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
     if name == "table3":
-        out = pd.DataFrame({"σ": [f"{s:g}" for s in t.sigma]})
-        for p in ("ls", "fb"):
-            out[f"{p.upper()} φ_min^fast"] = [_fmt(x) for x in t[f"{p}_phi_min_fast"]]
-            out[f"{p.upper()} φ_max^fast"] = [_fmt(x) for x in t[f"{p}_phi_max_fast"]]
-            out[f"{p.upper()} n"] = t[f"{p}_n_fast"].astype(int)
-        return out.set_index("σ")
+        method = method or t.attrs.get("method", BAND_DEFAULTS["method"])
+        rows = []
+        for _, r in t.iterrows():
+            for p in ("ls", "fb"):
+                for side, edge in (("low", "φ_min^fast"), ("high", "φ_max^fast")):
+                    q, lo, hi = (r[f"{p}_phi_{side}_quantile"], r[f"{p}_phi_{side}_ci_low"],
+                                 r[f"{p}_phi_{side}_ci_high"])
+                    ours = r[f"{p}_status"] or _pm(r[f"{p}_phi_{side}"], r[f"{p}_phi_{side}_half_width"])
+                    rows.append({
+                        "σ": f"{r.sigma:g}", "protocol": p.upper(), "edge": edge, "n": int(r[f"{p}_n_fast"]),
+                        f"ours ({METHOD_LABELS.get(method, method)})": ours,
+                        "sample min/max": _fmt(r[f"{p}_phi_{'min' if side == 'low' else 'max'}_fast"]),
+                        "α-quantile [95 % CI]": f"{_fmt(q)} [{_fmt(lo)}, {_fmt(hi)}]",
+                        "paper": _fmt(r[f"{p}_phi_{side}_paper"]) + (" †" if side == "low" else ""),
+                        "ours − paper": _signed(r[f"{p}_phi_{side}_minus_paper"]),
+                        "(ours − paper) / half-width": _ratio(r[f"{p}_phi_{side}_minus_paper_in_half_widths"]),
+                    })
+        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
     if name == "table4":
-        out = pd.DataFrame({"σ": [f"{s:g}" for s in t.sigma]})
-        for col in ("phi_LT", "phi_RCP", "phi_GCP"):
-            out[col.replace("phi_", "φ_")] = [_fmt(x) for x in t[col]]
-        return out.set_index("σ")
+        rows = []
+        for _, r in t.iterrows():
+            for col, label in (("phi_LT", "φ_LT"), ("phi_RCP", "φ_RCP"), ("phi_GCP", "φ_GCP")):
+                rows.append({
+                    "σ": f"{r.sigma:g}", "quantity": label,
+                    "ours": _pm(r[col], r[f"{col}_half_width"]),
+                    "paper": _fmt(r[f"{col}_paper"]) + (" *" if r[f"{col}_paper_derived"] else ""),
+                    "ours − paper": _signed(r[f"{col}_minus_paper"]),
+                    "(ours − paper) / half-width": _ratio(r[f"{col}_minus_paper_in_half_widths"]),
+                    "flag": GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else "",
+                })
+        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
     raise InputError(f"table={name!r}: must be table2, table3 or table4")
 
 
+def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """Every cell we can set against the paper, in one long table (the report's "Comparison with the paper")."""
+    rows = []
+    for _, r in tables["table2"].iterrows():
+        rows.append({"table": "Table 2", "sigma": r.sigma, "row": r.curve, "quantity": "phi_GCP",
+                     "ours": r.phi_gcp, "half_width": r.half_width, "paper": r.paper_phi_gcp,
+                     "paper_derived": False, "ours_minus_paper": r.minus_paper,
+                     "minus_paper_in_half_widths": r.minus_paper_in_half_widths,
+                     "note": r.status or (GCP_BELOW_RCP if r.gcp_below_rcp else "")})
+    t3 = tables["table3"]
+    for _, r in t3.iterrows():
+        for p in ("ls", "fb"):
+            for side, q in (("low", "phi_min_fast"), ("high", "phi_max_fast")):
+                rows.append({"table": "Table 3", "sigma": r.sigma, "row": p.upper(), "quantity": q,
+                             "ours": r[f"{p}_phi_{side}"], "half_width": r[f"{p}_phi_{side}_half_width"],
+                             "paper": r[f"{p}_phi_{side}_paper"], "paper_derived": False,
+                             "ours_minus_paper": r[f"{p}_phi_{side}_minus_paper"],
+                             "minus_paper_in_half_widths": r[f"{p}_phi_{side}_minus_paper_in_half_widths"],
+                             "note": r[f"{p}_status"] or (PAPER_MIN_NOTE if side == "low" else "")})
+    for _, r in tables["table4"].iterrows():
+        for col in ("phi_LT", "phi_RCP", "phi_GCP"):
+            rows.append({"table": "Table 4", "sigma": r.sigma, "row": "", "quantity": col,
+                         "ours": r[col], "half_width": r[f"{col}_half_width"], "paper": r[f"{col}_paper"],
+                         "paper_derived": r[f"{col}_paper_derived"], "ours_minus_paper": r[f"{col}_minus_paper"],
+                         "minus_paper_in_half_widths": r[f"{col}_minus_paper_in_half_widths"],
+                         "note": GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else ""})
+    return pd.DataFrame(rows)
+
+
 def _tex(text) -> str:
-    for plain, tex in (("_", r"\_"), ("σ", r"$\sigma$"), ("φ", r"$\varphi$"), ("±", r"$\pm$")):
+    for plain, tex in (("_", r"\_"), ("σ", r"$\sigma$"), ("φ", r"$\varphi$"), ("±", r"$\pm$"), ("−", "$-$"),
+                       ("α", r"$\alpha$"), ("†", r"$^\dagger$"), ("%", r"\%"), ("^fast", r"$^{\rm fast}$")):
         text = str(text).replace(plain, tex)
     return text
 
 
-def _latex(df: pd.DataFrame, caption: str) -> str:
+def _latex(df: pd.DataFrame, caption: str, notes: list[str]) -> str:
     cols = list(df.columns)
-    lines = [r"\begin{table}", r"\centering", f"\\caption{{{caption}}}", r"\begin{tabular}{l" + "c" * len(cols) + "}",
+    lines = [r"\begin{table}", r"\centering", f"\\caption{{{_tex(caption)}}}",
+             r"\begin{tabular}{l" + "c" * len(cols) + "}",
              r"\hline", " & ".join([_tex(df.index.name or "")] + [_tex(c) for c in cols]) + r" \\", r"\hline"]
     for idx, row in df.iterrows():
         lines.append(" & ".join([_tex(idx)] + [_tex(v) for v in row.values]) + r" \\")
-    lines += [r"\hline", r"\end{tabular}", r"\end{table}"]
+    lines += [r"\hline", r"\end{tabular}"]
+    lines += [f"\\par\\footnotesize {_tex(n)}" for n in notes]
+    lines += [r"\end{table}"]
     return "\n".join(lines) + "\n"
 
 
-def _markdown(df: pd.DataFrame, caption: str) -> str:
+def _markdown(df: pd.DataFrame, caption: str, notes: list[str]) -> str:
     cols = [df.index.name or ""] + [str(c) for c in df.columns]
     lines = [f"**{caption}**", "", "| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for idx, row in df.iterrows():
         lines.append("| " + " | ".join([str(idx)] + [str(v) for v in row.values]) + " |")
+    lines += [""] + [f"{n}  " for n in notes]
     return "\n".join(lines) + "\n"
 
 
@@ -178,9 +374,25 @@ CAPTIONS = {
 }
 
 
+def _notes(name: str, t: pd.DataFrame) -> list[str]:
+    notes = [f"Paper: {paper_reference.CITATION} (N = 10^4). A half-width is that of our 95 % confidence interval; "
+             "– = not available."]
+    if name == "table3":
+        notes.append(f"† {PAPER_MIN_NOTE}; the paper gives the LS and FB minima as differing by <= 1e-3. "
+                     "The sample min/max has no confidence interval (docs/statistics.md).")
+    if name == "table4":
+        notes.append("* paper cell lost in the text and recomputed by the paper's rule (mean of the four Table 2 "
+                     "entries).")
+        flagged = [f"{s:g}" for s, f in zip(t.sigma, t.gcp_below_rcp) if f]
+        if flagged:
+            notes.append(f"Flag: φ_GCP < φ_RCP at σ = {', '.join(flagged)} (too little data, not a result).")
+    return notes
+
+
 def compute_tables(ds) -> dict[str, pd.DataFrame]:
     t2, t3 = table2(ds), table3(ds)
-    return {"table2": t2, "table3": t3, "table4": table4(ds, t2, t3)}
+    t4 = table4(ds, t2, t3)
+    return {"table2": _flag_table2(t2, t4), "table3": t3, "table4": t4}
 
 
 #: The files :func:`write_tables` writes into its folder.
@@ -188,21 +400,48 @@ TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") f
 
 
 def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
-    """Write every table as ``<name>.csv`` (machine-readable, long), ``.md`` and ``.tex`` (paper layout)."""
+    """Write every table as ``<name>.csv`` (machine-readable, long), ``.md`` and ``.tex`` (with the paper's values),
+    and ``comparison.csv`` / ``comparison.md``: every cell set against the paper, in one table."""
     outdir = Path(outdir)
     written = []
-    for name, t in compute_tables(ds).items():
-        wide = formatted(name, t)
+    tables = compute_tables(ds)
+    method = band_settings(ds)["method"]
+    for name, t in tables.items():
+        wide = formatted(name, t, method)
+        notes = _notes(name, t)
         for ext, text in (
             ("csv", t.to_csv(index=False, float_format="%.10g")),
-            ("md", _markdown(wide, CAPTIONS[name])),
-            ("tex", _latex(wide, CAPTIONS[name])),
+            ("md", _markdown(wide, CAPTIONS[name], notes)),
+            ("tex", _latex(wide, CAPTIONS[name], notes)),
         ):
-            path = outdir / f"{name}.{ext}"
-            with atomic_output(path, f".{ext}") as tmp:
-                Path(tmp).write_text(text)
-            written.append(path)
+            written.append(_write(outdir / f"{name}.{ext}", text))
+    comp = comparison(tables)
+    written.append(_write(outdir / "comparison.csv", comp.to_csv(index=False, float_format="%.10g")))
+    written.append(_write(outdir / "comparison.md", comparison_markdown(tables, comp)))
     return written
 
 
-__all__ = ["table2", "table3", "table4", "compute_tables", "write_tables", "N_COEFFICIENTS"]
+def comparison_markdown(tables: dict[str, pd.DataFrame], comp: pd.DataFrame | None = None) -> str:
+    """The "Comparison with the paper" text: the flags first, then the three tables."""
+    comp = comparison(tables) if comp is None else comp
+    lines = ["# Comparison with the paper", "", paper_reference.CITATION, ""]
+    flagged = comp[comp.note.str.startswith("φ_GCP < φ_RCP")]
+    if len(flagged):
+        lines.append("**Flagged (φ_GCP < φ_RCP, a sign of too little data):** " + "; ".join(
+            f"{r.table} σ = {r.sigma:g} {r.row} {r.quantity}".replace("  ", " ") for _, r in flagged.iterrows()))
+    else:
+        lines.append("No row has φ_GCP < φ_RCP.")
+    n_est = int(comp.ours.notna().sum())
+    lines += ["", f"{n_est} of {len(comp)} cells estimable.", ""]
+    for name, t in tables.items():
+        lines.append(_markdown(formatted(name, t), CAPTIONS[name], _notes(name, t)))
+    return "\n".join(lines) + "\n"
+
+
+def _write(path: Path, text: str) -> Path:
+    with atomic_output(path, path.suffix) as tmp:
+        Path(tmp).write_text(text)
+    return path
+
+
+__all__ = ["table2", "table3", "table4", "compute_tables", "comparison", "write_tables", "N_COEFFICIENTS"]

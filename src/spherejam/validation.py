@@ -202,8 +202,19 @@ def check_config(config: Any) -> dict:
             rates = rate_grid(config[protocol]["rates"])
         except InputError as exc:
             raise InputError(f"{protocol}.{exc}") from None
+        bound = LS_RATE if protocol == "ls" else FB_RATE
         for i, r in enumerate(rates):
-            (LS_RATE if protocol == "ls" else FB_RATE).check(f"{protocol}.rates[{i}]", r)
+            bound.check(f"{protocol}.rates[{i}]", r)
+        for k, extra in enumerate(config[protocol].get("extra_rates") or []):
+            where = f"{protocol}.extra_rates[{k}]"
+            for i, s in enumerate(extra.get("sigmas", [])):
+                SIGMA.check(f"{where}.sigmas[{i}]", s)
+            try:
+                extra_rates = rate_grid(extra.get("rates", []))
+            except InputError as exc:
+                raise InputError(f"{where}.{exc}") from None
+            for i, r in enumerate(extra_rates):
+                bound.check(f"{where}.rates[{i}]", r)
         total += len(rates) * len(config["sigmas"]) * int(config.get("replicas", 1))
     if total > MAX_RUNS:
         raise InputError(f"sigmas x rates x replicas = {total} runs: at most {MAX_RUNS}")
