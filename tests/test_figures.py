@@ -52,7 +52,7 @@ def synthetic_dataset(sigmas=(0.0, 0.3), n_rates=14, seed=1):
     rate = np.array(cols["rate"])
     grate = np.array(grid["grid_rate"])
     config = {"n": 100, "sigmas": list(sigmas), "gcp_monodisperse": GCP0,
-              "fits": {"ls_initial": 6, "ls_densified": 6, "fb_initial": 6, "fb_densified": 6},
+              "fits": {"ls_initial": 6, "ls_densified": 6, "fb_initial": 6, "fb_densified": 6, "min_points": 6},
               "fast": {"ls_max_inverse_rate": 5, "fb_max_inverse_rate": 1000}}
     return xr.Dataset(
         {"phi": ("packing", np.array(cols["phi"])), "phi_J": ("packing", np.array(cols["phi_J"])),
