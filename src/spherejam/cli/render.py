@@ -14,8 +14,10 @@ def register(sub) -> None:
     p.add_argument("path", type=Path, help="packing file (.h5)")
     p.add_argument("-o", "--output", type=output_file, action="append", required=True,
                    help="image file, .png or .pdf (repeat for both; the scene is rendered once)")
-    p.add_argument("--size", type=int_at_least(16), default=800, help="rendered image side in pixels, 16 ... 8192 (800)")
-    p.add_argument("--sigma", type=finite_float, help="nominal sigma to print (default: the sample's std(D)/mean)")
+    p.add_argument("--size", type=int_at_least(16), default=800,
+                   help="rendered image side in pixels, 16 ... 8192 (800)")
+    p.add_argument("--sigma", type=finite_float,
+                   help="nominal sigma to print (default: the sample's std(D)/mean)")
     p.add_argument("--title", help="title instead of the default (N, phi, sigma)")
     p.set_defaults(func=_render)
 
