@@ -18,6 +18,13 @@ def register(sub) -> None:
                    help="max |s| of non-rattlers, units of the largest diameter (1e-9)")
     p.add_argument("--cutoff", type=finite_float, default=None,
                    help="regime-1 cutoff l0, units of the initial largest diameter (default 2 = 4 radii)")
+    # the choices of calippso.SOLVERS, not imported here: it loads numba, and `spherejam --help` should stay fast
+    p.add_argument("--solver", choices=("hipo", "ipx", "simplex"), default="hipo",
+                   help="HiGHS solver of a cold LP: hipo (sparse-direct interior point, default), ipx, simplex")
+    p.add_argument("--threads", type=int_at_least(1), default=1,
+                   help="HiGHS threads (1; more speeds up HiPO on one large certification)")
+    p.add_argument("--crossover", action="store_true",
+                   help="always cross over after an interior point (default: certify its active set instead)")
     p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (resume if it exists)")
     p.add_argument("--require-convergence", action="store_true", help="exit 1 if not converged")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -35,7 +42,8 @@ def _calippso(args) -> int:
     result = run_calippso(
         packing, max_iterations=args.max_iterations, gamma_tolerance=args.gamma_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
-        require_convergence=args.require_convergence,
+        require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
+        crossover=args.crossover,
     )
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.converged:
