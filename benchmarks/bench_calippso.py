@@ -73,6 +73,13 @@ def parse_path(text: str) -> dict:
     return {"solver": solver, "threads": int(threads or 1), "crossover": crossover}
 
 
+def timed_run(start: Packing, kw: dict):
+    """run_calippso and the CPU seconds it took (this process, all its threads)."""
+    cpu0 = time.process_time()
+    result = run_calippso(start, progress_interval=30.0, **kw)
+    return result, time.process_time() - cpu0
+
+
 def report(label: str, start: Packing, result, cpu: float) -> None:
     h = result.history
     s = result.summary()
@@ -182,9 +189,15 @@ def main(argv=None) -> int:
           f"p={start.metadata.get('reduced_pressure')}")
     results = []
     for path in args.paths:
-        cpu0 = time.process_time()
-        result = run_calippso(start, progress_interval=30.0, **parse_path(path))
-        cpu = time.process_time() - cpu0
+        kw = parse_path(path)
+        if kw["threads"] == 1:
+            result, cpu = timed_run(start, kw)
+        else:  # HiGHS fixes its thread count at a process's first solve: run this path in a fresh process
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+                result, cpu = pool.submit(timed_run, start, kw).result()
         report(path, start, result, cpu)
         target = TARGETS.get(start.n)
         if target is not None:

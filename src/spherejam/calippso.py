@@ -56,9 +56,10 @@ separate clearly. From regime 2 on, consecutive LPs share almost all rows and mo
 simplex (unscaled) starts from the previous LP's basis (rows matched by pair, new rows basic): tens to a
 few hundred pivots instead of a full interior-point solve, 3-10 times faster at N = 1024 (``warm_start=False``
 turns it off). Beyond :func:`warm_pivot_limit` pivots (~1000 at N = 1024, falling as 1/N to 200: a pivot costs
-~3 ms at N = 1024 but ~50 ms at N = 4096, where one interior-point solve costs ~50 s) it gives up for interior
-point, and after k failed warm starts in a row the next 2^k - 1 LPs skip it (at N = 4096 the warm starts needed
-1600-2000+ pivots, more than an interior-point solve costs; a deterministic back-off, so runs stay reproducible).
+~3 ms at N = 1024 but ~50 ms at N = 4096) it gives up for interior point, and after k failed warm starts in a row
+the next 2^k - 1 LPs skip it (a deterministic back-off, so runs stay reproducible). From N =
+:data:`WARM_START_MAX_N` on it is not tried at all: there the warm starts needed 1600-2000+ pivots, more than a
+cold solve costs, and the active-set shortcut (below) takes its place.
 The certified vertex carries its basis, so warm starts follow it as they follow a crossover. HiGHS (and HiPO's
 BLAS) use one thread unless ``threads`` says otherwise (HiGHS fixes its thread count at the first solve of a
 process). All give an optimal vertex within the same tolerances; where the optimum is degenerate they may pick
@@ -70,8 +71,9 @@ to return "optimal" with a row violated by 3e-5, which would have become an over
 :func:`solve_active_set` solves that square system by sparse LU, pivots (primal simplex) while a dual is negative,
 and returns the vertex only if it is certified optimal (primal and dual feasible). Otherwise HiGHS solves the LP.
 It is tried for the final force LP (certified duals: force balance to ~1e-14) and, in the main loop, only where no
-warm start is available (regime 1, ``warm_start=False``): a warm-started HiGHS solve is faster on average, because
-the shortcut's failed attempts (an active-set change beyond a few pivots) cost more than its successes save.
+warm start is available (regime 1, ``warm_start=False``, N >= :data:`WARM_START_MAX_N`): at smaller N a
+warm-started HiGHS solve is faster on average, because the shortcut's failed attempts (an active-set change
+beyond a few pivots) cost more than its successes save.
 ``active_set=False`` turns it off (tests check both agree).
 
 **Which starts converge quickly** (measured, d = 3). Packings at their own high pressure: an MLS output at
@@ -127,6 +129,9 @@ METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3, "vertex": 4}
 SOLVERS = ("hipo", "ipx", "simplex")
 #: History codes of which HiGHS solver produced an LP's solution ("none": the active-set solve alone, no HiGHS).
 SOLVER_CODES = {"none": 0, "hipo": 1, "ipx": 2, "simplex": 3}
+#: Smallest N whose LPs are never warm-started: from N = 4096 on warm starts needed 1600-2000+ primal simplex
+#: pivots (50 ms each at 4096, 0.5 s at 10^4), more than a cold HiPO solve costs (docs/cluster.md).
+WARM_START_MAX_N = 4096
 #: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: at 1e-9
 #: the near-active rows of HiPO's point were ambiguous (one contact swapped at N = 1024), at 1e-12 they separate
 #: by two decades for +3 iterations (measured, docs/cluster.md).
@@ -440,7 +445,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
         if method == "warm" and h.setBasis(_warm_basis(warm, keys, highspy)) == highspy.HighsStatus.kError:
             failures.append("warm: basis rejected")
             continue
-        h.run()
+        if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
+            # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
+            failures.append(f"{method}: HiGHS returned an error before solving (threads={threads})")
+            continue
         status = h.getModelStatus()
         if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
                                                  highspy.HighsModelStatus.kUnbounded):
@@ -850,8 +858,8 @@ def run_calippso(
         Try the certified active-set solve (:func:`solve_active_set`) before HiGHS whenever the previous LP was
         isostatic and no warm start is available, and for the final force LP (True). Off: every LP goes to HiGHS.
     warm_start : bool
-        Start each HiGHS solve from the previous LP's basis (primal simplex), falling back to interior point
-        (True). Off: interior point + crossover from scratch every time.
+        Start each HiGHS solve from the previous LP's basis (primal simplex), falling back to a cold solve
+        (True; never from N = :data:`WARM_START_MAX_N` on). Off: a cold solve every time.
     require_convergence : bool
         Raise :class:`SimulationError` instead of returning an unconverged result.
     checkpoint : path or None
@@ -943,14 +951,14 @@ def run_calippso(
         cpu0 = time.process_time()
         # a warm-started HiGHS solve is faster than the active-set pivots (measured: failed attempts cost more than
         # the successful ones save), so the main loop uses the shortcut only when there is no basis to start from
-        if predicted is not None and (basis is None or regime == 1):
+        if predicted is not None and (basis is None or regime == 1 or n >= WARM_START_MAX_N):
             t_try = time.perf_counter()
             sol = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=sb, pinned=pinned,
                                    gamma_bounds=(1.0, gamma_max))
             if sol is None:
                 lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
         if sol is None:
-            warm = basis if regime > 1 and warm_skip == 0 else None
+            warm = basis if regime > 1 and warm_skip == 0 and n < WARM_START_MAX_N else None
             warm_skip = max(warm_skip - 1, 0)
             sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
                            tolerance=solver_tolerance, options=solver_options, iteration=iteration, warm=warm,

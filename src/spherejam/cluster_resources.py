@@ -23,9 +23,10 @@ development machine (AMD EPYC VM; figures in docs/cluster.md and reference-bench
 * FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
 * CALiPPSO: ~10 LPs (7 from an MLS output at N = 2048, 11 from an LS + MLS start at p = 1e5 at N = 1024) of
-  ``1.5 s (N / 1024)^3`` each: one HiGHS interior-point + crossover LP took 1.5 / 13-16 / 35-64 / 1626-1667 s at
-  N = 1024 / 2048 / 4096 / 10^4 (one core). Warm-started LPs are cheaper at small N, but from N ~ 4096 on most warm
-  starts exceed their pivot cap and fall back to interior point, so every LP is costed as one.
+  ``1.5 s (N / 1024)^1.5`` each: one HiPO interior-point solve whose vertex is certified by the active-set solve
+  (no crossover) took ~1.5 / 11-14 / ~LP10K s of CPU at N = 1024 / 4096 / 10^4 (one core, the machine shared).
+  Warm-started and active-set LPs are cheaper, but every LP is costed as a cold one. The old path (IPX + crossover)
+  grew as N^2.5-N^3.9 (1.5 s / 35-64 s / 28 min at N = 1024 / 4096 / 10^4).
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
@@ -62,10 +63,11 @@ MLS_SIZE_EXPONENT = 0.66
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: LP iterations, and seconds of one LP at N = 1024 (HiGHS interior point, d = 3).
+#: CALiPPSO: LP iterations, and CPU seconds of one LP at N = 1024 (HiPO + certified vertex, d = 3), growing as
+#: N^CALIPPSO_EXPONENT.
 CALIPPSO_ITERATIONS = 10
 CALIPPSO_LP_SECONDS = 1.5
-CALIPPSO_EXPONENT = 3.0
+CALIPPSO_EXPONENT = 1.5
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
