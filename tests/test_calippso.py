@@ -377,3 +377,24 @@ def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
         assert SOLVER_CODES["hipo"] in result.history["solver"]
         assert sum(result.counters["lp_solvers"].values()) == result.iterations + 1  # incl. the force LP
         assert np.all(result.history["cpu_time"] >= 0)
+
+
+def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
+    from spherejam.calippso import SOLVER_CODES, SOLVERS
+    from spherejam.cli import build_parser, main
+    from spherejam.packing_io import read_packing, write_packing
+
+    src, out = tmp_path / "in.h5", tmp_path / "out.h5"
+    write_packing(src, ls_jammed_256)
+    assert main(["calippso", str(src), "-o", str(out), "--solver", "ipx", "--crossover", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["is_isostatic"] == 1.0
+    parameters = read_packing(out).metadata["parameters"]
+    assert parameters["solver"] == "ipx" and parameters["crossover"] is True and parameters["threads"] == 1
+    with pytest.raises(SystemExit) as bad:
+        main(["calippso", str(src), "-o", str(out), "--solver", "gurobi"])
+    assert bad.value.code == 2 and "--solver" in capsys.readouterr().err
+    # the CLI's choices (not imported from calippso, to keep --help fast) are the solver list
+    action = next(a for a in build_parser()._subparsers._group_actions[0].choices["calippso"]._actions
+                  if a.dest == "solver")
+    assert tuple(action.choices) == SOLVERS
+    assert set(SOLVER_CODES) == {"none", *SOLVERS}
