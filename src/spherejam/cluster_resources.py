@@ -24,8 +24,11 @@ development machine (AMD EPYC VM; figures in docs/cluster.md and reference-bench
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
 * CALiPPSO: ~10 LPs (7 from an MLS output at N = 2048, 11 from an LS + MLS start at p = 1e5 at N = 1024) of
   ``1.5 s (N / 1024)^1.5`` each: one HiPO interior-point solve whose vertex is certified by the active-set solve
-  (no crossover) took ~1.5 / 11-14 / ~LP10K s of CPU at N = 1024 / 4096 / 10^4 (one core, the machine shared).
-  Warm-started and active-set LPs are cheaper, but every LP is costed as a cold one. The old path (IPX + crossover)
+  (no crossover) took ~1.5 / 10-19 (median 12) / ~50 s of CPU at N = 1024 / 4096 / 10^4 (one core, the machine
+  shared).
+  Warm-started and active-set LPs are cheaper, but every LP is costed as a cold one; the LPs that fall back to
+  crossover (2-3 times a cold LP; 2 of 11 at N = 4096, 4 of 32 at N = 2048) are left to the margin (SAFETY).
+  The old path (IPX + crossover)
   grew as N^2.5-N^3.9 (1.5 s / 35-64 s / 28 min at N = 1024 / 4096 / 10^4).
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
