@@ -91,7 +91,7 @@ def report(label: str, start: Packing, result, cpu: float) -> None:
     print(f"   iterations {result.iterations} (converged {result.converged}); LPs (CPU s): {per_method}")
     print(f"   CPU {cpu:.2f} s (LPs incl. the force LP {result.counters['lp_cpu_time']:.2f} s), wall "
           f"{result.wall_time:.2f} s; methods incl. force LP {result.counters['lp_methods']}, HiGHS solvers "
-          f"{result.counters['lp_solvers']}")
+          f"{result.counters['lp_solvers']}, warm-start attempts {result.counters['warm_attempts']}")
     print(f"   phi_J {result.phi:.10f}  delta_phi {s['delta_phi']:.3e}  contacts {result.n_contacts}  "
           f"rattlers {result.n_rattlers} ({100 * s['rattler_fraction']:.2f}%)  isostatic {result.isostatic}  "
           f"force balance {result.force_balance_residual:.2e}  worst overlap {result.counters['worst_overlap']:.1e}")

@@ -503,13 +503,6 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
     )
 
 
-def lam_rows(lam, basis, m):
-    """Duals of the basis rows scattered onto all m rows."""
-    out = np.zeros(m)
-    out[basis] = lam
-    return out
-
-
 def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
     """The vertex an interior point of the LP is heading for: ``(contact keys, rattler mask, fixed)``, or None.
 
@@ -534,7 +527,7 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
         distance = np.maximum(s_bound - np.abs(s), 0.0) / s_bound
         bound_score = np.abs(col_dual) * m * sigma / 2.0 / np.maximum(distance, 1e-300)
         fixed = np.where(bound_score > 1.0, np.sign(s), 0).astype(np.int8)
-    wall_i, wall_comp = np.nonzero(fixed)
+    wall_i = np.nonzero(fixed)[0]
     ci = np.concatenate([pi[near], wall_i])
     cj = np.concatenate([pj[near], np.full(wall_i.size, n)])  # node n: the wall of the s bounds, never a rattler
     rattler = rattler_mask(n + 1, ci, cj, dim + 1)[:n]
@@ -564,9 +557,8 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     components of stable particles held at their lower / upper s bound: they leave the unknowns (one contact fewer
     each), and their bound multipliers must come out >= 0, else None (bounds never pivot). Anything else -- a
     rattler joining the network, another active s or a Gamma bound, a singular system, more than ``max_pivots``
-    pivots -- returns None and the caller
-    solves the LP with HiGHS. Near convergence the active
-    set barely changes, and this replaces a HiGHS solve (seconds) by a few factorisations (milliseconds).
+    pivots -- returns None and the caller solves the LP with HiGHS. Near convergence the active set barely
+    changes, and this replaces a HiGHS solve (seconds) by a few factorisations (milliseconds).
     """
     from scipy.sparse import csr_matrix
     from scipy.sparse.linalg import splu
@@ -644,8 +636,10 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         basis[k] = blocking[j]
     if np.any(held):
         # bound multipliers: mu = -(A^T lambda)_j at an upper bound, +(A^T lambda)_j at a lower one, both >= 0
+        row_lam = np.zeros(stable_rows.size)
+        row_lam[basis] = lam
         at = np.zeros(n * dim + 1)
-        np.add.at(at, index[held], value[held] * lam_rows(lam, basis, stable_rows.size)[row_id[held]])
+        np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
         comps = np.flatnonzero(fixed.ravel())
         if np.any(-fixed.ravel()[comps] * at[comps] < 0.0):
             return None
