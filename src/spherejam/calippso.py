@@ -866,7 +866,8 @@ def run_calippso(
         HiGHS solver of a cold LP solve: "hipo" (sparse-direct interior point, the default), "ipx" (interior
         point) or "simplex" (dual simplex). Recorded per LP in ``history["solver"]`` (:data:`SOLVER_CODES`).
     threads : int
-        HiGHS threads (1: workflow jobs get one core each; more helps HiPO on one large certification).
+        Threads of HiGHS and of HiPO's BLAS (1: workflow jobs get one core each). HiGHS keeps the count of a
+        process's first solve.
     crossover : bool
         Always run HiGHS's crossover after an interior point (False: certify the interior point's active set with
         :func:`solve_active_set` and cross over only when that fails; both give exact vertex duals).

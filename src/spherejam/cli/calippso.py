@@ -22,7 +22,7 @@ def register(sub) -> None:
     p.add_argument("--solver", choices=("hipo", "ipx", "simplex"), default="hipo",
                    help="HiGHS solver of a cold LP: hipo (sparse-direct interior point, default), ipx, simplex")
     p.add_argument("--threads", type=int_at_least(1), default=1,
-                   help="HiGHS threads (1; more speeds up HiPO on one large certification)")
+                   help="threads of HiGHS and HiPO's BLAS (1: workflow jobs get one core each)")
     p.add_argument("--crossover", action="store_true",
                    help="always cross over after an interior point (default: certify its active set instead)")
     p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (resume if it exists)")
