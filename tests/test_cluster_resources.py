@@ -75,13 +75,12 @@ def test_costs_grow_with_n_and_with_slower_rates():
 
 
 def test_calippso_model_matches_the_measured_lp_times():
-    """One cold LP (HiPO + certified vertex): 10-19 s CPU at N = 4096 and ~50 s at N = 10^4 (docs/cluster.md)."""
-    per_lp = {n: cr.cpu_seconds("calippso", n) / cr.CALIPPSO_ITERATIONS for n in (1024, 4096, 10000)}
-    assert per_lp[1024] == pytest.approx(1.5)
-    assert 10.0 <= per_lp[4096] <= 19.0
-    assert 25.0 <= per_lp[10000] <= 100.0
-    # the certification of an N = 10^4 MLS output fits well inside one day (the old IPX model: ~4 h)
-    assert cr.runtime_minutes("calippso", 10000) < 60
+    """Mean CPU s per LP, fallbacks to crossover included: 4.3 at N = 2048, ~250 at N = 10^4 (docs/cluster.md)."""
+    per_lp = {n: cr.cpu_seconds("calippso", n) / cr.CALIPPSO_ITERATIONS for n in (2048, 10000)}
+    assert per_lp[2048] == pytest.approx(4.3, rel=0.2)
+    assert per_lp[10000] == pytest.approx(250.0, rel=0.2)
+    # a certification at N = 10^4 fits in one submission (the old IPX model: ~4 h of work, 12 h limit)
+    assert cr.runtime_minutes("calippso", 10000) < 4 * 60
 
 
 def test_floor_ceiling_and_attempts(monkeypatch):
