@@ -299,3 +299,102 @@ def test_failed_warm_starts_back_off_and_fall_back_to_interior_point():
     assert 1 <= starved.counters["warm_attempts"] <= 1 + math.log2(later)
     assert normal.counters["warm_attempts"] >= normal.iterations // 2
     assert abs(starved.phi - normal.phi) < 1e-6
+
+
+# --- HiGHS solvers: HiPO, IPX, simplex; vertex certification instead of crossover -----------------------------------
+
+
+@pytest.fixture(scope="module")
+def ls_jammed_256():
+    """An LS packing compressed to p = 1e12 (jammed at that pressure): CALiPPSO certifies it in a few LPs."""
+    from spherejam.lubachevsky_stillinger import run_ls
+    from spherejam.seeding import poisson_packing
+
+    # rate 1e-3: glassy (phi 0.6487, 12 rattlers); faster LS starts creep, and degenerate LPs let paths diverge
+    return run_ls(poisson_packing(256, 0.0, 1), 1e-3, p_max=1e12, seed=1, progress_interval=1e9).packing
+
+
+def force_lp(packing):
+    """The final (force) LP of a packing: rows within 2.7 radii, s bounded by R only, Gamma free."""
+    x, box = packing.positions, packing.box
+    i, j, _ = pairs_in_cutoff(x, box, 1.35)
+    return pair_vectors(x, box, i, j), (0.5 * (packing.diameters[i] + packing.diameters[j])) ** 2, i, j
+
+
+def test_hipo_is_available_and_really_runs(tmp_path, ls_jammed_256):
+    """HiPO needs highspy-extras; without it HiGHS rejects solver='hipo' (while 'ipm' silently stays IPX). The
+    HiGHS log proves which interior point ran."""
+    import highspy
+
+    assert highspy.Highs().setOptionValue("solver", "hipo") == highspy.HighsStatus.kOk
+    rij, sigma2, i, j = force_lp(ls_jammed_256)
+    for solver, mark in (("hipo", "Hipo: "), ("ipx", "Ipx: IPM")):
+        log = tmp_path / f"{solver}.log"
+        sol = solve_lp(rij, sigma2, i, j, 256, s_bound=0.5, pinned=0, gamma_bounds=(-math.inf, math.inf),
+                       solver=solver, options={"output_flag": True, "log_to_console": False, "log_file": str(log)})
+        assert sol.solver == solver and sol.method == "ipm"
+        text = log.read_text()
+        assert mark in text and ("Ipx: IPM" not in text if solver == "hipo" else "Hipo: " not in text)
+    with pytest.raises(InputError, match="solver"):
+        run_calippso(ls_jammed_256, solver="gurobi")
+
+
+@pytest.mark.parametrize("solver", ["hipo", "ipx"])
+def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
+    """The interior point's near-active rows, certified by the active-set solve, give the vertex crossover gives:
+    the same active rows, Gamma and duals (the vertex of a jammed packing's force LP is unique)."""
+    rij, sigma2, i, j = force_lp(ls_jammed_256)
+    kw = dict(s_bound=0.5, pinned=0, gamma_bounds=(-math.inf, math.inf), solver=solver)
+    crossed = solve_lp(rij, sigma2, i, j, 256, **kw)
+    vertex = solve_lp(rij, sigma2, i, j, 256, **kw, crossover=False)
+    assert crossed.method == "ipm" and vertex.method.startswith("vertex") and vertex.solver == solver
+    np.testing.assert_array_equal(vertex.duals > 0, crossed.duals > 0)
+    assert vertex.gamma == pytest.approx(crossed.gamma, abs=1e-12)
+    np.testing.assert_allclose(vertex.duals, crossed.duals, rtol=1e-6, atol=1e-12)
+    # the certified vertex carries a HiGHS basis: the next LP can warm-start from it
+    assert vertex.basis is not None and np.count_nonzero(vertex.basis.rows != 1) == np.count_nonzero(vertex.duals)
+
+
+def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
+    """HiPO + certified vertices (the default) and IPX + crossover (the old path) certify the same jammed state:
+    the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
+    from spherejam.calippso import SOLVER_CODES
+
+    old = run_calippso(ls_jammed_256, solver="ipx", crossover=True)
+    new = run_calippso(ls_jammed_256)
+    cold = run_calippso(ls_jammed_256, warm_start=False, active_set=False)  # every LP: HiPO + certified vertex
+    assert old.packing.metadata["parameters"]["crossover"] is True
+    assert "vertex" not in old.counters["lp_methods"] and SOLVER_CODES["hipo"] not in old.history["solver"]
+    assert cold.counters["lp_methods"].get("vertex", 0) >= cold.iterations
+    for result in (old, new, cold):
+        assert_jammed(result, 3)
+        assert {tuple(p) for p in result.pairs.tolist()} == {tuple(p) for p in old.pairs.tolist()}
+        np.testing.assert_array_equal(result.rattlers, old.rattlers)
+        assert result.phi == pytest.approx(old.phi, abs=1e-10)
+        np.testing.assert_allclose(np.sort(result.forces), np.sort(old.forces), rtol=1e-5)
+    for result in (new, cold):
+        assert result.packing.metadata["parameters"]["solver"] == "hipo"
+        assert SOLVER_CODES["hipo"] in result.history["solver"]
+        assert sum(result.counters["lp_solvers"].values()) == result.iterations + 1  # incl. the force LP
+        assert np.all(result.history["cpu_time"] >= 0)
+
+
+def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
+    from spherejam.calippso import SOLVER_CODES, SOLVERS
+    from spherejam.cli import build_parser, main
+    from spherejam.packing_io import read_packing, write_packing
+
+    src, out = tmp_path / "in.h5", tmp_path / "out.h5"
+    write_packing(src, ls_jammed_256)
+    assert main(["calippso", str(src), "-o", str(out), "--solver", "ipx", "--crossover", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["is_isostatic"] == 1.0
+    parameters = read_packing(out).metadata["parameters"]
+    assert parameters["solver"] == "ipx" and parameters["crossover"] is True and parameters["threads"] == 1
+    with pytest.raises(SystemExit) as bad:
+        main(["calippso", str(src), "-o", str(out), "--solver", "gurobi"])
+    assert bad.value.code == 2 and "--solver" in capsys.readouterr().err
+    # the CLI's choices (not imported from calippso, to keep --help fast) are the solver list
+    action = next(a for a in build_parser()._subparsers._group_actions[0].choices["calippso"]._actions
+                  if a.dest == "solver")
+    assert tuple(action.choices) == SOLVERS
+    assert set(SOLVER_CODES) == {"none", *SOLVERS}

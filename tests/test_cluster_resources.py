@@ -74,6 +74,15 @@ def test_costs_grow_with_n_and_with_slower_rates():
     assert cr.runtime_minutes("ls", 10000, rate=1e-4) > cr.runtime_minutes("ls", 10000, rate=1e-2)
 
 
+def test_calippso_model_matches_the_measured_lp_times():
+    """Mean CPU s per LP, fallbacks to crossover included: 4.3 at N = 2048, ~250 at N = 10^4 (docs/cluster.md)."""
+    per_lp = {n: cr.cpu_seconds("calippso", n) / cr.CALIPPSO_ITERATIONS for n in (2048, 10000)}
+    assert per_lp[2048] == pytest.approx(4.3, rel=0.2)
+    assert per_lp[10000] == pytest.approx(250.0, rel=0.2)
+    # a certification at N = 10^4 fits in one submission (the old IPX model: ~4 h of work, 12 h limit)
+    assert cr.runtime_minutes("calippso", 10000) < 4 * 60
+
+
 def test_floor_ceiling_and_attempts(monkeypatch):
     monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
     tiny = cr.runtime_minutes("seed", 40)

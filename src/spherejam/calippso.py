@@ -42,16 +42,28 @@ sum to 1 over ~dN/2 contacts). Rattlers: particles outside the (d+1)-core of the
 After convergence one more LP with s unbounded (|s| <= R only, so it stays bounded) and Gamma free is solved at the
 final positions without moving anything (spec §2.3), so no bound carries force; contacts and forces come from it.
 
-**Solver.** The first LP, and every LP in regime 1 (large steps, many rows change), is solved by interior point
-+ crossover from scratch. From regime 2 on, consecutive LPs share almost all rows and most of the active set, so
-primal simplex (unscaled) starts from the previous LP's basis (rows matched by pair, new rows basic): tens to a
+**Solver.** The first LP, and every LP in regime 1 (large steps, many rows change), is solved from scratch by the
+chosen HiGHS solver (``solver``): HiPO by default (HiGHS's interior point with a sparse direct factorisation; it
+scales about as N^1.5 where IPX grows as N^2.5-N^3.9), IPX, or dual simplex, named explicitly because with
+highspy-extras installed HiGHS's "ipm" silently means HiPO. An interior point is not a vertex, and HiGHS's
+crossover to one costs as much as the interior point itself at N = 4096. Instead the interior point's near-active
+rows (:func:`interior_point_prediction`) are taken as the predicted vertex and certified by
+:func:`solve_active_set` (method "vertex": exact duals, primal and dual feasibility checked); only when that
+fails (a wrong prediction beyond a few pivots, a degenerate vertex) does HiGHS cross over (``crossover=True``
+always does). Components held at their s bound are part of the prediction (their multipliers are checked too).
+The interior point is run to an optimality tolerance of :data:`VERTEX_IPM_TOLERANCE` so that the active rows
+separate clearly. From regime 2 on, consecutive LPs share almost all rows and most of the active set, so primal
+simplex (unscaled) starts from the previous LP's basis (rows matched by pair, new rows basic): tens to a
 few hundred pivots instead of a full interior-point solve, 3-10 times faster at N = 1024 (``warm_start=False``
 turns it off). Beyond :func:`warm_pivot_limit` pivots (~1000 at N = 1024, falling as 1/N to 200: a pivot costs
-~3 ms at N = 1024 but ~50 ms at N = 4096, where one interior-point solve costs ~50 s) it gives up for interior
-point, and after k failed warm starts in a row the next 2^k - 1 LPs skip it (at N = 4096 the warm starts needed
-1600-2000+ pivots, more than an interior-point solve costs; a deterministic back-off, so runs stay reproducible).
-HiGHS uses one thread. Both give an optimal vertex within the same tolerances; where the optimum is degenerate
-they may pick different vertices, so trajectories can differ (the jammed state from the reference's LS input
+~3 ms at N = 1024 but ~50 ms at N = 4096) it gives up for interior point, and after k failed warm starts in a row
+the next 2^k - 1 LPs skip it (a deterministic back-off, so runs stay reproducible). From N =
+:data:`WARM_START_MAX_N` on it is not tried at all: there the warm starts needed 1600-2000+ pivots, more than a
+cold solve costs, and the active-set shortcut (below) takes its place.
+The certified vertex carries its basis, so warm starts follow it as they follow a crossover. HiGHS (and HiPO's
+BLAS) use one thread unless ``threads`` says otherwise (HiGHS fixes its thread count at the first solve of a
+process). All give an optimal vertex within the same tolerances; where the optimum is degenerate they may pick
+different vertices, so trajectories can differ (the jammed state from the reference's LS input
 does not). Every solution HiGHS calls optimal is checked here too (rows, bounds, force balance): simplex was seen
 to return "optimal" with a row violated by 3e-5, which would have become an overlap; such a solve counts as failed.
 
@@ -59,8 +71,9 @@ to return "optimal" with a row violated by 3e-5, which would have become an over
 :func:`solve_active_set` solves that square system by sparse LU, pivots (primal simplex) while a dual is negative,
 and returns the vertex only if it is certified optimal (primal and dual feasible). Otherwise HiGHS solves the LP.
 It is tried for the final force LP (certified duals: force balance to ~1e-14) and, in the main loop, only where no
-warm start is available (regime 1, ``warm_start=False``): a warm-started HiGHS solve is faster on average, because
-the shortcut's failed attempts (an active-set change beyond a few pivots) cost more than its successes save.
+warm start is available (regime 1, ``warm_start=False``, N >= :data:`WARM_START_MAX_N`): at smaller N a
+warm-started HiGHS solve is faster on average, because the shortcut's failed attempts (an active-set change
+beyond a few pivots) cost more than its successes save.
 ``active_set=False`` turns it off (tests check both agree).
 
 **Which starts converge quickly** (measured, d = 3). Packings at their own high pressure: an MLS output at
@@ -108,8 +121,24 @@ MAX_ESCALATED_BOUND = 0.1
 #: Largest correction of sqrt(Gamma) tolerated for solver round-off before the step is declared broken.
 MAX_OVERLAP_CORRECTION = 1e-8
 CHECKPOINT_KIND = "calippso"
-#: History codes of how an LP was solved.
-METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3}
+#: History codes of how an LP was solved ("vertex": interior point without crossover, its vertex certified by
+#: :func:`solve_active_set`; "ipm": interior point + HiGHS crossover).
+METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3, "vertex": 4}
+#: The HiGHS solvers an LP can be sent to: HiPO (sparse-direct interior point, needs highspy-extras), IPX
+#: (interior point), dual simplex.
+SOLVERS = ("hipo", "ipx", "simplex")
+#: Smallest N that ``solver="auto"`` sends to HiPO with a certified vertex; below it IPX + crossover was faster
+#: (N = 1024: 2.6 s against 5.0 s per run; N = 2048: 116 s against 137 s; docs/cluster.md).
+AUTO_HIPO_MIN_N = 4096
+#: History codes of which HiGHS solver produced an LP's solution ("none": the active-set solve alone, no HiGHS).
+SOLVER_CODES = {"none": 0, "hipo": 1, "ipx": 2, "simplex": 3}
+#: Smallest N whose LPs are never warm-started: from N = 4096 on warm starts needed 1600-2000+ primal simplex
+#: pivots (50 ms each at 4096, 0.5 s at 10^4), more than a cold HiPO solve costs (docs/cluster.md).
+WARM_START_MAX_N = 4096
+#: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: at 1e-9
+#: the near-active rows of HiPO's point were ambiguous (one contact swapped at N = 1024), at 1e-12 they separate
+#: by two decades for +3 iterations (measured, docs/cluster.md).
+VERTEX_IPM_TOLERANCE = 1e-12
 
 
 # --- result -----------------------------------------------------------------------------------------------------
@@ -130,8 +159,10 @@ class CalippsoResult:
         LPs solved in the main loop (the final force LP not included).
     history : dict of arrays, one row per iteration
         ``sqrt_gamma_minus_1``, ``max_displacement`` (non-rattlers, units of the largest diameter),
-        ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cutoff`` and ``s_bound``
-        (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`), ``n_contacts``,
+        ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cpu_time`` (CPU s of this
+        process for the LP, incl. a failed active-set attempt: the figure to compare on a busy machine), ``cutoff``
+        and ``s_bound`` (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`), ``solver``
+        (:data:`SOLVER_CODES`), ``n_contacts``,
         ``n_rattlers``, ``isostatic``,
         ``overlap_correction``.
     pairs : (K, 2) int array
@@ -225,8 +256,8 @@ class LPBasis:
 
 @dataclass
 class LPSolution:
-    """Solution of one LP: displacements s (N, d), Gamma, pair duals lambda >= 0, solve time, method used, and
-    the final basis (None if HiGHS did not provide one)."""
+    """Solution of one LP: displacements s (N, d), Gamma, pair duals lambda >= 0, solve time, method used, the
+    final basis (None if HiGHS did not provide one) and the HiGHS solver used."""
 
     s: np.ndarray
     gamma: float
@@ -234,20 +265,24 @@ class LPSolution:
     solve_time: float
     method: str
     basis: LPBasis | None = None
+    solver: str = "none"  # the HiGHS solver behind it (SOLVER_CODES)
+    failed: str = ""  # the attempts that failed before this one (e.g. an uncertified vertex before crossover)
 
 
-def _highs_options(tolerance: float, extra: dict[str, Any] | None) -> dict[str, Any]:
+def _highs_options(tolerance: float, extra: dict[str, Any] | None, solver: str = "hipo",
+                   threads: int = 1) -> dict[str, Any]:
     opts: dict[str, Any] = {
         "output_flag": False,
-        "solver": "ipm",  # IPX in this HiGHS build
+        # named explicitly: with highspy-extras installed "ipm" silently means HiPO, without it IPX
+        "solver": solver,
         "run_crossover": "on",  # a vertex solution: duals exact and zero off the active set
         "primal_feasibility_tolerance": tolerance,
         "dual_feasibility_tolerance": tolerance,
         "ipm_optimality_tolerance": tolerance,
         # r_ij components are O(1) in our units, but keep tiny ones rather than treating them as zero
         "small_matrix_value": 1e-12,
-        # IPX and simplex run serially anyway; one thread keeps idle scheduler workers from spinning on a core
-        "threads": 1,
+        # one thread by default: workflow jobs get one core each, and idle scheduler workers would spin on it
+        "threads": int(threads),
     }
     opts.update(extra or {})
     return opts
@@ -274,6 +309,22 @@ def _warm_basis(warm: LPBasis, keys: np.ndarray, highspy):
     # a warm solve); a square basis that is singular is still caught, as rank deficiency, when simplex factorises it
     basis.alien = bool(np.count_nonzero(rows == _BASIC) + np.count_nonzero(warm.cols == _BASIC) != keys.size)
     return basis
+
+
+def _vertex_basis(vertex: LPSolution, rattler: np.ndarray, fixed: np.ndarray, pinned: int,
+                  keys: np.ndarray) -> LPBasis:
+    """The HiGHS basis of a certified vertex (for the next LP's warm start): active rows at their upper bound, the
+    displacements of stable particles and Gamma basic, held components, the pinned particle and rattlers at a
+    bound (rattlers at the one they moved towards, as HiGHS's crossover leaves them)."""
+    n, dim = vertex.s.shape
+    cols = np.where(vertex.s.ravel() > 0, 2, 0).astype(np.int8)  # kUpper / kLower
+    free = np.repeat(~rattler, dim) & (fixed.ravel() == 0)
+    free[pinned * dim:(pinned + 1) * dim] = False
+    cols[free] = _BASIC
+    cols = np.append(cols, np.int8(_BASIC))  # Gamma
+    rows = np.where(vertex.duals > 0, 2, _BASIC).astype(np.int8)
+    order = np.argsort(keys)
+    return LPBasis(keys[order], rows[order], cols)
 
 
 def _status_members(highspy):
@@ -322,15 +373,20 @@ def warm_pivot_limit(n: int) -> int:
 
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance=1e-9, options=None,
-             iteration=-1, warm: LPBasis | None = None) -> LPSolution:
+             iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
+             crossover: bool = True) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
     ``gamma_bounds`` the (lower, upper) bounds of Gamma. With ``warm`` (the basis of the previous LP) primal simplex
     starts from it: consecutive LPs share most of their active rows, so it re-optimises in a few pivots where
-    interior point starts from scratch. Failing that, or without ``warm``, interior point + crossover; on a
-    non-optimal result the LP is solved once more with dual simplex before giving up.
+    interior point starts from scratch. Failing that, or without ``warm``, a cold solve by ``solver`` (one of
+    :data:`SOLVERS`, with ``threads`` HiGHS threads). An interior point is followed by HiGHS's crossover when
+    ``crossover``; otherwise its near-active rows predict the vertex, which :func:`solve_active_set` certifies
+    (method "vertex"), and crossover is the fallback. On a non-optimal result the LP is solved once more with dual
+    simplex (IPX after a simplex cold solve) before giving up.
     """
+    require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
 
     dim = rij.shape[1]
@@ -363,8 +419,15 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
     lp.a_matrix_.value_ = value
     keys = pi.astype(np.int64) * n + pj
 
-    opts = _highs_options(tolerance, options)
-    attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
+    opts = _highs_options(tolerance, options, solver, threads)
+    _limit_blas_threads(threads)
+    if solver == "simplex":
+        attempts = [("simplex", opts), ("ipm", {**opts, "solver": "ipx"})]
+    else:
+        attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
+        if not crossover:
+            attempts.insert(0, ("vertex", {**opts, "run_crossover": "off",
+                                           "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}))
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
         # primal simplex: the carried-over vertex is nearly primal feasible (the rows barely moved)
         # no scaling: the rows are O(1) already, and scaling made warm solves 3-5 times longer (measured). Beyond
@@ -385,8 +448,37 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
         if method == "warm" and h.setBasis(_warm_basis(warm, keys, highspy)) == highspy.HighsStatus.kError:
             failures.append("warm: basis rejected")
             continue
-        h.run()
+        if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
+            # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
+            failures.append(f"{method}: HiGHS returned an error before solving (threads={threads})")
+            continue
         status = h.getModelStatus()
+        if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
+                                                 highspy.HighsModelStatus.kUnbounded):
+            # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
+            sol = h.getSolution()
+            vertex = None
+            if sol.value_valid and sol.dual_valid:
+                slack = rhs - np.asarray(sol.row_value)
+                duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+                s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
+                guess = interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s_ipm,
+                                                  np.asarray(sol.col_dual)[:-1].reshape(n, dim), s_bound)
+                if guess is not None:
+                    guess[2][pinned] = 0
+                    vertex = solve_active_set(rij, sigma2, pi, pj, n, guess[0], guess[1], s_bound=s_bound,
+                                              pinned=pinned, gamma_bounds=gamma_bounds, rattler_s=s_ipm,
+                                              fixed=guess[2])
+            problem = "its near-active rows are not a certified vertex" if vertex is None else _vertex_problem(
+                rij, sigma2, pi, pj, vertex.s, vertex.gamma, vertex.duals, lower[:-1].reshape(n, dim),
+                upper[:-1].reshape(n, dim), tolerance)
+            if problem is None:
+                vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
+                vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
+                vertex.method = "vertex+" + vertex.method.split("+")[1]  # + its pivots
+                return vertex
+            failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
+            continue
         if status == highspy.HighsModelStatus.kOptimal:
             sol = h.getSolution()
             x = np.asarray(sol.col_value)
@@ -403,7 +495,8 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
             if hb.valid:
                 order = np.argsort(keys)
                 basis = LPBasis(keys[order], _status_codes(hb.row_status)[order], _status_codes(hb.col_status))
-            return LPSolution(s.copy(), float(x[-1]), duals, time.perf_counter() - t0, method, basis)
+            return LPSolution(s.copy(), float(x[-1]), duals, time.perf_counter() - t0, method, basis, o["solver"],
+                              "; ".join(failures))
         failures.append(f"{method}: {h.modelStatusToString(status)}")
         if method != "warm" and status in (highspy.HighsModelStatus.kInfeasible,
                                            highspy.HighsModelStatus.kUnbounded):
@@ -413,8 +506,46 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, gamma_bounds, tolerance
     )
 
 
+def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
+    """The vertex an interior point of the LP is heading for: ``(contact keys, rattler mask, fixed)``, or None.
+
+    On the central path lambda_k * slack_k is the same small number for every row, so the score
+    (lambda_k sigma_k^2 M) / (slack_k / sigma_k^2) (M rows; both factors dimensionless, the first ~1 on an active
+    row) grows without bound on the optimal active set and vanishes off it. An s component gets the same kind of
+    score from its bound multiplier |col_dual| and its distance to the bound (with ``s``, ``col_dual`` and
+    ``s_bound``): those scoring > 1 are predicted held at the bound (``fixed``: -1 / +1, else 0). Rows scoring > 1
+    and the held components (as contacts with a wall) give the contact graph and its rattlers (outside the
+    (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score
+    are the predicted vertex, for :func:`solve_active_set` to certify.
+    """
+    from .contacts import rattler_mask
+
+    m = len(pi)
+    score = duals * sigma2 * m / np.maximum(slack / sigma2, 1e-300)
+    near = score > 1.0
+    fixed = np.zeros((n, dim), dtype=np.int8)
+    if s is not None and s_bound is not None and math.isfinite(s_bound):
+        # scales of a bound multiplier (~ 2 sigma lambda, A's entries are 2 r) and of a distance to the bound (s_bound)
+        sigma = math.sqrt(float(np.median(sigma2)))
+        distance = np.maximum(s_bound - np.abs(s), 0.0) / s_bound
+        bound_score = np.abs(col_dual) * m * sigma / 2.0 / np.maximum(distance, 1e-300)
+        fixed = np.where(bound_score > 1.0, np.sign(s), 0).astype(np.int8)
+    wall_i = np.nonzero(fixed)[0]
+    ci = np.concatenate([pi[near], wall_i])
+    cj = np.concatenate([pj[near], np.full(wall_i.size, n)])  # node n: the wall of the s bounds, never a rattler
+    rattler = rattler_mask(n + 1, ci, cj, dim + 1)[:n]
+    fixed[rattler] = 0
+    n_stable = n - int(np.count_nonzero(rattler))
+    nu = dim * (n_stable - 1) + 1 - int(np.count_nonzero(fixed))
+    stable = np.flatnonzero(~rattler[pi] & ~rattler[pj])
+    if n_stable < dim + 2 or nu < 1 or stable.size < nu:
+        return None
+    top = stable[np.argsort(-score[stable], kind="stable")[:nu]]
+    return np.sort(pi[top] * n + pj[top]), rattler, fixed
+
+
 def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, gamma_bounds,
-                     feasibility=1e-12, max_pivots=None) -> LPSolution | None:
+                     feasibility=1e-12, max_pivots=None, rattler_s=None, fixed=None) -> LPSolution | None:
     """Solve the LP from a predicted active set by primal simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
@@ -424,9 +555,13 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     tight and the first pair row to close enters (the primal simplex method with the exact ratio test; every
     pivot refactorises). The vertex is returned only when it is *certified optimal*: all duals > 0, all rows and
     bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e. primal and dual feasible with complementary
-    slackness. Anything else -- a rattler joining the network, an active s or Gamma bound, a singular system, more
-    than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS. Near convergence the active
-    set barely changes, and this replaces a HiGHS solve (seconds) by a few factorisations (milliseconds).
+    slackness. Rattlers start from ``rattler_s`` ((N, d), e.g. an interior point, whose rattlers sit inside their
+    cages; default 0) and are pushed out of rows they violate. ``fixed`` ((N, d) of -1 / 0 / +1) predicts s
+    components of stable particles held at their lower / upper s bound: they leave the unknowns (one contact fewer
+    each), and their bound multipliers must come out >= 0, else None (bounds never pivot). Anything else -- a
+    rattler joining the network, another active s or a Gamma bound, a singular system, more than ``max_pivots``
+    pivots -- returns None and the caller solves the LP with HiGHS. Near convergence the active set barely
+    changes, and this replaces a HiGHS solve (seconds) by a few factorisations (milliseconds).
     """
     from scipy.sparse import csr_matrix
     from scipy.sparse.linalg import splu
@@ -437,21 +572,26 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         return None
     free = ~rattler
     free[pinned] = False
-    col_of = np.full(n, -1, dtype=np.int64)
-    col_of[free] = np.arange(np.count_nonzero(free))
-    nu = dim * int(np.count_nonzero(free)) + 1
+    fixed = np.zeros((n, dim), dtype=np.int8) if fixed is None else np.where(free[:, None], fixed, 0).astype(np.int8)
+    # unknowns: the s components of stable, non-pinned particles not held at a bound, then Gamma
+    free_comp = np.repeat(free, dim) & (fixed.ravel() == 0)
+    col_of = np.full(n * dim + 1, -1, dtype=np.int64)
+    col_of[:-1][free_comp] = np.arange(np.count_nonzero(free_comp))
+    nu = int(np.count_nonzero(free_comp)) + 1
+    col_of[-1] = nu - 1
     if contact_keys.size != nu:
         return None  # not isostatic: no square system
-    # the rows among stable particles, in the reduced columns (pinned particle dropped)
+    # the rows among stable particles, in the reduced columns (pinned particle and fixed components dropped)
     stable_rows = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     start, index, value, rhs = constraint_rows(rij[stable_rows], sigma2[stable_rows], pi[stable_rows],
                                                pj[stable_rows], n)
-    part = np.minimum(index // dim, n - 1)
-    is_gamma = index == n * dim
-    keep = is_gamma | (col_of[part] >= 0)
-    new_col = np.where(is_gamma, nu - 1, col_of[part] * dim + index % dim)
+    keep = col_of[index] >= 0
     row_id = np.repeat(np.arange(stable_rows.size), np.diff(start))
-    a_all = csr_matrix((value[keep], (row_id[keep], new_col[keep])), shape=(stable_rows.size, nu))
+    a_all = csr_matrix((value[keep], (row_id[keep], col_of[index][keep])), shape=(stable_rows.size, nu))
+    s_fixed = np.append(fixed.ravel() * float(s_bound), 0.0)
+    held = s_fixed[index] != 0.0
+    if np.any(held):  # a held component moves to the right-hand side
+        rhs = rhs - np.bincount(row_id[held], weights=value[held] * s_fixed[index][held], minlength=rhs.size)
     key = pi[stable_rows] * n + pj[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
     if basis.size != nu:
@@ -497,9 +637,20 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         if np.max(np.abs(u[:-1] + step * d[:-1]), initial=0.0) > s_bound:
             return None  # an s bound would block first
         basis[k] = blocking[j]
+    if np.any(held):
+        # bound multipliers: mu = -(A^T lambda)_j at an upper bound, +(A^T lambda)_j at a lower one, both >= 0
+        row_lam = np.zeros(stable_rows.size)
+        row_lam[basis] = lam
+        at = np.zeros(n * dim + 1)
+        np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
+        comps = np.flatnonzero(fixed.ravel())
+        if np.any(-fixed.ravel()[comps] * at[comps] < 0.0):
+            return None
     gamma = max(float(u[-1]), gamma_bounds[0])
-    s = np.zeros((n, dim))
-    s[free] = u[:-1].reshape(-1, dim)
+    s = np.zeros((n, dim)) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
+    s[pinned] = 0.0
+    s.ravel()[free_comp] = u[:-1]
+    s[fixed != 0] = fixed[fixed != 0] * float(s_bound)
     active = np.zeros(len(pi), dtype=bool)
     active[stable_rows[basis]] = True
     # every row of the LP: |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 >= 0. Rattlers (columns without active rows)
@@ -661,6 +812,9 @@ def run_calippso(
     checkpoint: str | Path | None = None,
     checkpoint_interval: float = 300.0,
     progress_interval: float = 10.0,
+    solver: str = "auto",
+    threads: int = 1,
+    crossover: bool | None = None,
 ) -> CalippsoResult:
     """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
 
@@ -701,8 +855,8 @@ def run_calippso(
         Try the certified active-set solve (:func:`solve_active_set`) before HiGHS whenever the previous LP was
         isostatic and no warm start is available, and for the final force LP (True). Off: every LP goes to HiGHS.
     warm_start : bool
-        Start each HiGHS solve from the previous LP's basis (primal simplex), falling back to interior point
-        (True). Off: interior point + crossover from scratch every time.
+        Start each HiGHS solve from the previous LP's basis (primal simplex), falling back to a cold solve
+        (True; never from N = :data:`WARM_START_MAX_N` on). Off: a cold solve every time.
     require_convergence : bool
         Raise :class:`SimulationError` instead of returning an unconverged result.
     checkpoint : path or None
@@ -711,10 +865,28 @@ def run_calippso(
         it. Removed when the run converges.
     progress_interval : float
         Seconds between progress lines (logger ``spherejam``).
+    solver : str
+        HiGHS solver of a cold LP solve: "hipo" (sparse-direct interior point), "ipx" (interior point),
+        "simplex" (dual simplex), or "auto" (the default: the faster one measured at this N, HiPO from
+        :data:`AUTO_HIPO_MIN_N` on, else IPX). Recorded per LP in ``history["solver"]`` (:data:`SOLVER_CODES`)
+        and, resolved, in the parameters.
+    threads : int
+        Threads of HiGHS and of HiPO's BLAS (1: workflow jobs get one core each). HiGHS keeps the count of a
+        process's first solve.
+    crossover : bool or None
+        Always run HiGHS's crossover after an interior point (False: certify the interior point's active set with
+        :func:`solve_active_set` and cross over only when that fails; both give exact vertex duals). None (the
+        default): False for HiPO, True for IPX, the faster pairing of each.
     """
     _validate(packing, max_iterations, gamma_tolerance, displacement_tolerance, s_bound, cutoff, initial_sqrt_gamma,
               zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval, checkpoint_interval,
               regime_thresholds)
+    require(solver in (*SOLVERS, "auto"), "solver", solver, f"must be one of auto, {', '.join(SOLVERS)}")
+    if solver == "auto":
+        solver = "hipo" if packing.n >= AUTO_HIPO_MIN_N else "ipx"
+    if crossover is None:
+        crossover = solver != "hipo"
+    require(isinstance(threads, (int, np.integer)) and threads >= 1, "threads", threads, "must be an integer >= 1")
     wall0 = time.perf_counter()
     report = packing.check(overlap_tolerance)
     if not report.ok:
@@ -734,7 +906,8 @@ def run_calippso(
         "initial_sqrt_gamma": float(initial_sqrt_gamma), "regime_thresholds": list(regime_thresholds),
         "zero_force": zero_force, "solver_tolerance": solver_tolerance, "overlap_tolerance": overlap_tolerance,
         "fine_tune": bool(fine_tune), "active_set": bool(active_set), "warm_start": bool(warm_start),
-        "solver": "highs: ipm+crossover, warm-started primal simplex" if warm_start else "highs: ipm+crossover",
+        "solver": solver, "threads": int(threads), "crossover": bool(crossover),
+        "highs_version": _highs_version(),
     }
 
     history = History()
@@ -743,7 +916,9 @@ def run_calippso(
     iteration = 0
     converged = False
     lp_time = 0.0
+    lp_cpu_time = 0.0  # this call's, not resumed from a checkpoint
     methods: dict[str, int] = {}
+    solvers: dict[str, int] = {}  # LPs per HiGHS solver ("none": active set alone), incl. the force LP
     predicted = None  # (contact keys, rattler mask) of the last LP, when isostatic
     basis = None  # HiGHS basis of the last HiGHS-solved LP, the next one's warm start (regimes 2-3)
     warm_failures = 0  # failed warm starts in a row
@@ -751,7 +926,8 @@ def run_calippso(
     warm_attempts = 0
     bound_hit, prev_sb = False, 0.0
     ckpt = Path(checkpoint) if checkpoint is not None else None
-    fingerprint = _fingerprint(packing, {k: v for k, v in parameters.items() if k != "max_iterations"})
+    # a resumed run may use another thread count (same trajectory)
+    fingerprint = _fingerprint(packing, {k: v for k, v in parameters.items() if k not in ("max_iterations", "threads")})
     if ckpt is not None and ckpt.exists():
         x, dia, state, rows = _load_state(ckpt, fingerprint)
         iteration, sqrt_gamma_prev, pinned = state["iteration"], state["sqrt_gamma_prev"], state["pinned"]
@@ -777,27 +953,32 @@ def run_calippso(
         rij = pair_vectors(x, box, pi, pj)
         sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
         sol = None
+        cpu0 = time.process_time()
         # a warm-started HiGHS solve is faster than the active-set pivots (measured: failed attempts cost more than
         # the successful ones save), so the main loop uses the shortcut only when there is no basis to start from
-        if predicted is not None and (basis is None or regime == 1):
+        if predicted is not None and (basis is None or regime == 1 or n >= WARM_START_MAX_N):
             t_try = time.perf_counter()
             sol = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=sb, pinned=pinned,
                                    gamma_bounds=(1.0, gamma_max))
             if sol is None:
                 lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
         if sol is None:
-            warm = basis if regime > 1 and warm_skip == 0 else None
+            warm = basis if regime > 1 and warm_skip == 0 and n < WARM_START_MAX_N else None
             warm_skip = max(warm_skip - 1, 0)
             sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
-                           tolerance=solver_tolerance, options=solver_options, iteration=iteration, warm=warm)
+                           tolerance=solver_tolerance, options=solver_options, iteration=iteration, warm=warm,
+                           solver=solver, threads=threads, crossover=crossover)
             basis = sol.basis if warm_start else None
             if warm is not None:
                 warm_attempts += 1
                 warm_failures = 0 if sol.method == "warm" else warm_failures + 1
                 warm_skip = 2**warm_failures - 1
         iteration += 1
+        lp_cpu = time.process_time() - cpu0
+        lp_cpu_time += lp_cpu
         lp_time += sol.solve_time
         methods[sol.method.split("+")[0]] = methods.get(sol.method.split("+")[0], 0) + 1
+        solvers[sol.solver] = solvers.get(sol.solver, 0) + 1
         contact, rattler, n_contacts, isostatic, _ = contact_network(rij, sigma2, pi, pj, sol.duals, n, dim,
                                                                      zero_force)
         predicted = _prediction(contact, rattler, pi, pj, n, isostatic, active_set)
@@ -822,15 +1003,17 @@ def run_calippso(
         phi = _phi(dia, box, dim)
         history.append(
             sqrt_gamma_minus_1=sqrt_gamma - 1.0, max_displacement=max_s, max_displacement_all=max_s_all, phi=phi,
-            n_constraints=len(pi), solve_time=sol.solve_time, cutoff=ell / dia.max(), s_bound=sb / dia.max(),
-            regime=regime, method=METHOD_CODES[sol.method.split("+")[0]], n_contacts=n_contacts,
+            n_constraints=len(pi), solve_time=sol.solve_time, cpu_time=lp_cpu, cutoff=ell / dia.max(),
+            s_bound=sb / dia.max(),
+            regime=regime, method=METHOD_CODES[sol.method.split("+")[0]], solver=SOLVER_CODES[sol.solver],
+            n_contacts=n_contacts,
             n_rattlers=int(np.count_nonzero(rattler)),
             isostatic=int(isostatic), overlap_correction=correction,
         )
         progress.update(
             f"it {iteration}: sqrt(G)-1 {sqrt_gamma - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
             f"rows {len(pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
-            f"LP {sol.solve_time:.2f} s",
+            f"LP {sol.solve_time:.2f} s ({sol.method}, {sol.solver})",
             fields={"LP": iteration, "√Γ-1": sqrt_gamma - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
         )
         last = (rij, sigma2, pi, pj, sol, rattler)
@@ -860,6 +1043,7 @@ def run_calippso(
     rij = pair_vectors(x, box, pi, pj)
     sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
     duals = None
+    cpu0 = time.process_time()
     if fine_tune:
         try:
             fine = None
@@ -869,14 +1053,17 @@ def run_calippso(
             if fine is None:
                 fine = solve_lp(rij, sigma2, pi, pj, n, s_bound=R, pinned=pinned,
                                 gamma_bounds=(-math.inf, math.inf), tolerance=solver_tolerance,
-                                options=solver_options, iteration=iteration + 1, warm=basis)
+                                options=solver_options, iteration=iteration + 1, warm=basis, solver=solver,
+                                threads=threads, crossover=crossover)
             methods[fine.method.split("+")[0]] = methods.get(fine.method.split("+")[0], 0) + 1
+            solvers[fine.solver] = solvers.get(fine.solver, 0) + 1
             lp_time += fine.solve_time
             duals = fine.duals
             fine_gamma = fine.gamma
             fine_tuned = True
         except SimulationError:
             duals = None
+    lp_cpu_time += time.process_time() - cpu0
     if duals is None:
         if last is None:
             raise SimulationError("CALiPPSO: no LP solved (checkpoint already at max_iterations?)")
@@ -906,8 +1093,9 @@ def run_calippso(
         raise SimulationError(f"CALiPPSO output overlaps: {final_report}")
     wall = time.perf_counter() - wall0
     counters = {
-        "iterations": iteration, "converged": converged, "lp_time": lp_time, "wall_time": wall,
-        "lp_methods": methods, "warm_attempts": warm_attempts, "fine_tuned": fine_tuned,
+        "iterations": iteration, "converged": converged, "lp_time": lp_time, "lp_cpu_time": lp_cpu_time,
+        "wall_time": wall,
+        "lp_methods": methods, "lp_solvers": solvers, "warm_attempts": warm_attempts, "fine_tuned": fine_tuned,
         "fine_tune_sqrt_gamma_minus_1": math.sqrt(fine_gamma) - 1.0 if fine_gamma > 0 else math.nan,
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
@@ -928,6 +1116,38 @@ def run_calippso(
 
 
 # --- helpers ----------------------------------------------------------------------------------------------------------
+
+
+_BLAS_THREADS: list[int] = []
+
+
+def _limit_blas_threads(threads: int) -> None:
+    """Give HiPO's BLAS (OpenBLAS linked into highspy-extras) ``threads`` threads.
+
+    HiGHS's ``threads`` option does not reach it, and OpenBLAS otherwise starts one thread per core: a one-core
+    workflow job would then use every core of the node for its dense kernels.
+    """
+    if _BLAS_THREADS == [threads]:
+        return
+    import ctypes
+    import importlib.util
+
+    spec = importlib.util.find_spec("highspy_extras")
+    if spec is None or not spec.submodule_search_locations:
+        return
+    for lib in sorted(Path(next(iter(spec.submodule_search_locations))).glob("libhighs_extras*.so*")):
+        try:
+            ctypes.CDLL(str(lib)).openblas_set_num_threads(int(threads))
+        except (OSError, AttributeError):
+            continue
+    _BLAS_THREADS[:] = [threads]
+
+
+def _highs_version() -> str:
+    import highspy
+
+    return highspy.Highs().version()
+
 
 
 def _phi(dia, box, dim) -> float:

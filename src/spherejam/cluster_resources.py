@@ -23,9 +23,11 @@ development machine (AMD EPYC VM; figures in docs/cluster.md and reference-bench
 * FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
 * CALiPPSO: ~10 LPs (7 from an MLS output at N = 2048, 11 from an LS + MLS start at p = 1e5 at N = 1024) of
-  ``1.5 s (N / 1024)^3`` each: one HiGHS interior-point + crossover LP took 1.5 / 13-16 / 35-64 / 1626-1667 s at
-  N = 1024 / 2048 / 4096 / 10^4 (one core). Warm-started LPs are cheaper at small N, but from N ~ 4096 on most warm
-  starts exceed their pivot cap and fall back to interior point, so every LP is costed as one.
+  ``0.84 s (N / 1024)^2.5`` each on average (HiPO, its vertex certified by the active-set solve, crossover as the
+  fallback): 4.3 s per LP at N = 2048 (32 LPs) and ~250 s at N = 10^4 (LPs 1-3: a certified one of ~50 s, two
+  that fell back to HiPO + crossover, ~400 s and > 300 s), CPU of one core on the shared machine. A cold LP alone
+  grows only as ~N^1.5 (1.5 / 12 / 50 s at N = 1024 / 4096 / 10^4): the fallbacks set the average. The old path
+  (IPX + crossover) took 1.5 s / 35-64 s / 28 min per LP.
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
@@ -62,10 +64,11 @@ MLS_SIZE_EXPONENT = 0.66
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: LP iterations, and seconds of one LP at N = 1024 (HiGHS interior point, d = 3).
+#: CALiPPSO: LP iterations, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks included), growing as
+#: N^CALIPPSO_EXPONENT (fitted to N = 2048 and 10^4).
 CALIPPSO_ITERATIONS = 10
-CALIPPSO_LP_SECONDS = 1.5
-CALIPPSO_EXPONENT = 3.0
+CALIPPSO_LP_SECONDS = 0.84
+CALIPPSO_EXPONENT = 2.5
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).

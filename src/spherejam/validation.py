@@ -145,6 +145,7 @@ PORE_SAMPLES = Bound(1, 1_000_000_000, integer=True)
 CALIPPSO_ITERATIONS = Bound(1, 1_000_000, integer=True)
 FB_ITERATIONS = Bound(0, 10**12, integer=True)
 OVERLAP_TOLERANCE = Bound(0.0, 1.0)
+THREADS = Bound(1, 256, integer=True)
 
 
 def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,

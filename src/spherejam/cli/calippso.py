@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
 from ..output_paths import check_outputs, output_file
-from ..validation import CALIPPSO_ITERATIONS
+from ..validation import CALIPPSO_ITERATIONS, THREADS
 from . import EXIT_FAILED, finite_float
 
 
@@ -22,6 +23,15 @@ def register(sub) -> None:
                    help="max |s| of non-rattlers, units of the largest diameter (1e-9)")
     p.add_argument("--cutoff", type=finite_float, default=None,
                    help="regime-1 cutoff l0, units of the initial largest diameter (default 2 = 4 radii)")
+    # the choices of calippso.SOLVERS, not imported here: it loads numba, and `spherejam --help` should stay fast
+    p.add_argument("--solver", choices=("auto", "hipo", "ipx", "simplex"), default="auto",
+                   help="HiGHS solver of a cold LP: auto (default: hipo from N = 4096 on, else ipx), hipo "
+                        "(sparse-direct interior point), ipx, simplex")
+    p.add_argument("--threads", type=THREADS.arg, default=1,
+                   help="threads of HiGHS and HiPO's BLAS, 1 ... 256 (1: workflow jobs get one core each)")
+    p.add_argument("--crossover", action=argparse.BooleanOptionalAction, default=None,
+                   help="cross over after every interior point, or certify its active set and cross over only "
+                        "when that fails (default: certify with hipo, cross over with ipx)")
     p.add_argument("--checkpoint", type=output_file, default=None, help="checkpoint file (resume if it exists)")
     p.add_argument("--require-convergence", action="store_true",
                    help="stop with an error and write nothing if not converged (without it an unconverged run "
@@ -43,7 +53,8 @@ def _calippso(args) -> int:
     result = run_calippso(
         packing, max_iterations=args.max_iterations, gamma_tolerance=args.gamma_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
-        require_convergence=args.require_convergence,
+        require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
+        crossover=args.crossover,
     )
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.converged:
