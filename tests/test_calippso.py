@@ -356,13 +356,14 @@ def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
 
 
 def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
-    """HiPO + certified vertices (the default) and IPX + crossover (the old path) certify the same jammed state:
-    the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
+    """HiPO + certified vertices (the default from N = 4096 on) and IPX + crossover (the default below) certify the
+    same jammed state: the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
     from spherejam.calippso import SOLVER_CODES
 
-    old = run_calippso(ls_jammed_256, solver="ipx", crossover=True)
-    new = run_calippso(ls_jammed_256)
-    cold = run_calippso(ls_jammed_256, warm_start=False, active_set=False)  # every LP: HiPO + certified vertex
+    old = run_calippso(ls_jammed_256)  # solver="auto" at N = 256: IPX + crossover
+    assert old.packing.metadata["parameters"]["solver"] == "ipx"
+    new = run_calippso(ls_jammed_256, solver="hipo")
+    cold = run_calippso(ls_jammed_256, solver="hipo", warm_start=False, active_set=False)  # every LP: HiPO + vertex
     assert old.packing.metadata["parameters"]["crossover"] is True
     assert "vertex" not in old.counters["lp_methods"] and SOLVER_CODES["hipo"] not in old.history["solver"]
     assert cold.counters["lp_methods"].get("vertex", 0) >= cold.iterations
@@ -390,11 +391,10 @@ def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
     assert json.loads(capsys.readouterr().out)["is_isostatic"] == 1.0
     parameters = read_packing(out).metadata["parameters"]
     assert parameters["solver"] == "ipx" and parameters["crossover"] is True and parameters["threads"] == 1
-    with pytest.raises(SystemExit) as bad:
-        main(["calippso", str(src), "-o", str(out), "--solver", "gurobi"])
-    assert bad.value.code == 2 and "--solver" in capsys.readouterr().err
+    assert main(["calippso", str(src), "-o", str(out), "--solver", "gurobi"]) == 2
+    assert "--solver" in capsys.readouterr().err
     # the CLI's choices (not imported from calippso, to keep --help fast) are the solver list
     action = next(a for a in build_parser()._subparsers._group_actions[0].choices["calippso"]._actions
                   if a.dest == "solver")
-    assert tuple(action.choices) == SOLVERS
+    assert tuple(action.choices) == ("auto", *SOLVERS)
     assert set(SOLVER_CODES) == {"none", *SOLVERS}
