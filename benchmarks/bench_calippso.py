@@ -9,8 +9,8 @@
     python benchmarks/bench_calippso.py --save-start s.h5   # keep the start; --start s.h5 reruns on it
 
 A path is ``solver[:threads][+crossover]``: ``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover),
-``hipo`` the default (HiPO interior point, its vertex certified by the active-set solve, crossover only as the
-fallback). The first path listed is the reference: every other path must give the same contact network, the same
+``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only as the
+fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is the reference: every other path must give the same contact network, the same
 rattlers and force balance <= 1e-10 (printed as "agree"). Times are CPU seconds of this process (the machine is
 shared: wall time is printed too but is no figure), per LP and in total.
 
