@@ -1,7 +1,7 @@
 """CALiPPSO: jam a hard-sphere packing by iterative linear programming, with contact forces from the LP duals.
 
 Artiaco, Díaz Hernández Rojas, Parisi, Ricci-Tersenghi, Phys. Rev. E 106, 055310 (2022); the rules below follow the
-reference code CALiPPSO.jl v0.2.2 as summarised in ``shared/reference/calippso.md`` (cited as "spec §x").
+reference code CALiPPSO.jl v0.2.2 as described in ``docs/calippso.md`` (cited as "docs §x").
 
 **One iteration** solves, with HiGHS (a vertex solution, so the duals are exact: see "Solver" below),
 
@@ -12,7 +12,7 @@ then moves r_i <- r_i + s_i and inflates every diameter by sqrt(Gamma). Lengths 
 *initial* largest diameter; ``R`` below is the current largest radius. It stops when sqrt(Gamma) - 1 <=
 ``gamma_tolerance`` and max |s_{i,mu}| over non-rattlers <= ``displacement_tolerance`` * (current largest diameter).
 
-**Cutoff l and bound s_bound** (spec §1.3), chosen from sqrt(Gamma) - 1 of the previous LP:
+**Cutoff l and bound s_bound** (docs §1.3), chosen from sqrt(Gamma) - 1 of the previous LP:
 regime 1 (> 5e-4): l = l0, s_bound = (l/2 - max(1.5, sqrt(Gamma_prev)) R)/sqrt(d); regime 2 (> 1e-5): s_bound =
 0.1R; regime 3: l = min(2.7R, l0), s_bound = 0.01R. Deviations, all for safety or speed:
 
@@ -40,10 +40,11 @@ particle whose bounds are not active, sum_j lambda_ij r_ij = 0: the contact forc
 f_ij ∝ lambda_ij r_ij. A pair is a contact iff lambda_ij sigma_ij^2 > ``zero_force`` / N (scale free: the shares
 sum to 1 over ~dN/2 contacts). Rattlers: particles outside the (d+1)-core of the contact graph (iterated).
 After convergence one more LP with s unbounded (|s| <= R only, so it stays bounded) and Gamma free is solved at the
-final positions without moving anything (spec §2.3), so no bound carries force; contacts and forces come from it.
+final positions without moving anything (docs §2.3), so no bound carries force; contacts and forces come from it.
 
 **Solver.** The first LP, and every LP in regime 1 (large steps, many rows change), is solved from scratch by the
-chosen HiGHS solver (``solver``): HiPO by default (HiGHS's interior point with a sparse direct factorisation; it
+chosen HiGHS solver (``solver``): by default HiPO from N = :data:`AUTO_HIPO_MIN_N` on and IPX with crossover
+below it (``solver="auto"``; HiPO is HiGHS's interior point with a sparse direct factorisation; it
 scales about as N^1.5 where IPX grows as N^2.5-N^3.9), IPX, or dual simplex, named explicitly because with
 highspy-extras installed HiGHS's "ipm" silently means HiPO. An interior point is not a vertex, and HiGHS's
 crossover to one costs as much as the interior point itself at N = 4096. Instead the interior point's near-active
@@ -108,11 +109,11 @@ from .neighbours import pairs_within
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .runs import History, Progress
 
-#: Default regime thresholds on sqrt(Gamma_prev) - 1 (spec §1.3).
+#: Default regime thresholds on sqrt(Gamma_prev) - 1 (docs §1.3).
 REGIME_THRESHOLDS = (5e-4, 1e-5)
-#: s_bound of regimes 2 and 3 in units of the largest radius R (spec §1.3).
+#: s_bound of regimes 2 and 3 in units of the largest radius R (docs §1.3).
 REGIME_S_BOUNDS = (0.1, 0.01)
-#: Cutoff of regimes 2 and 3 in units of R (spec §1.3).
+#: Cutoff of regimes 2 and 3 in units of R (docs §1.3).
 REGIME_CUTOFFS = (2.7, 2.7)
 #: Smallest regime-1 bound sqrt(d) s_bound / R accepted before the cutoff is enlarged instead.
 MIN_FAR_BOUND = 0.1
@@ -1034,7 +1035,7 @@ def run_calippso(
                               f"(last sqrt(Gamma)-1 = {history.last('sqrt_gamma_minus_1'):.3e}, "
                               f"max|s| = {history.last('max_displacement'):.3e})")
 
-    # forces: one more LP at the final configuration, nothing moves (spec §2.3)
+    # forces: one more LP at the final configuration, nothing moves (docs §2.3)
     fine_tuned = False
     fine_gamma = math.nan
     R = 0.5 * float(dia.max())

@@ -10,8 +10,8 @@ h^0.6 from 0 (Donev, Torquato & Stillinger, PRE 71, 011105 (2005)): the number o
 N(g), has a plateau between the two populations. We scan g on a log grid (4 points per decade) from 10/p up to
 1e-3 and pick the grid point where N(g) is flattest, i.e. where the fewest gaps fall within half a decade either
 side; ties go to the centre of the flattest stretch. At p = 1e12 this lands around 1e-9 ... 1e-7, consistent with
-the reference code's 1e-7 (spec §6.1). Without a pressure the scan starts at 1e-12. :func:`tolerance_scan` gives
-the coordination over the whole grid, to show the plateau.
+the reference code's 1e-7 (docs/algorithms.md §6.1). Without a pressure the scan starts at 1e-12.
+:func:`tolerance_scan` gives the coordination over the whole grid, to show the plateau.
 
 **Rattlers** (:func:`rattler_mask`): a particle with fewer than ``min_contacts`` (default d + 1) contacts with
 non-rattlers is a rattler, recursively. The fixed point is the k-core of the contact graph, k = d + 1, computed by

@@ -32,11 +32,12 @@ from .errors import InputError, SimulationError, require
 from .packing import Packing, ball_volume
 from .seeding import rng_for
 
-#: Neighbour cutoff of the Steinhardt bond network: r_ij <= Q6_CUTOFF * D_ij (spec §6.4, as in the reference code).
+#: Neighbour cutoff of the Steinhardt bond network: r_ij <= Q6_CUTOFF * D_ij (docs/algorithms.md §6.4, as in the
+#: reference code).
 Q6_CUTOFF = 1.2
 #: Minimum volume of a cell around a sphere of diameter a: the regular dodecahedron circumscribing it, 0.694 a^3.
 DODECAHEDRON_VOLUME = 0.6938
-#: Pore-size entropy: threshold r_0 = ā/4 (mean radius R = ā/2, alpha = 2), S = alpha^2 ln P (spec §6.5).
+#: Pore-size entropy: threshold r_0 = ā/4 (mean radius R = ā/2, alpha = 2), S = alpha^2 ln P (docs/algorithms.md §6.5).
 PORE_ALPHA = 2.0
 PORE_MIN_SAMPLES = 10**7
 PORE_CHECK_EVERY = 10**4
@@ -88,7 +89,7 @@ def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
 
 
 def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF, bonds=None):  # noqa: E741 (degree l)
-    """Steinhardt bond-orientational order of degree ``l`` (even), d = 3 (spec §6.4).
+    """Steinhardt bond-orientational order of degree ``l`` (even), d = 3 (docs/algorithms.md §6.4).
 
     Returns ``(q_global, q_local, q_per_particle, n_neighbours)``: q_global from <Y_lm> over all bonds; q(i) from
     the bonds of i (NaN for particles without neighbours); q_local = mean of q(i) over particles with neighbours.
@@ -297,7 +298,7 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
 
 
 def voronoi_statistics(volumes: np.ndarray, diameters: np.ndarray) -> dict[str, float]:
-    """Normalised std and k-Gamma entropy of cell volumes (spec §6.6), volumes in units of ā^3.
+    """Normalised std and k-Gamma entropy of cell volumes (docs/algorithms.md §6.6), volumes in units of ā^3.
 
     Free volume of a cell: V_i - V_min,i with V_min,i = 0.694 a_i^3 (the dodecahedron circumscribing sphere i;
     for sigma = 0 this is the spec's V_min; for sigma > 0 it is our per-particle extension). k-Gamma fit by
@@ -417,7 +418,8 @@ def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, c
 def pore_size_entropy(
     packing: Packing, *, seed: int = 0, samples: int | None = None, min_samples: int = PORE_MIN_SAMPLES,
 ) -> tuple[float, float, int]:
-    """Pore-size entropy S = alpha^2 ln P, alpha = 2 (spec §6.5; Baranau et al., Soft Matter 9, 3361 (2013)).
+    """Pore-size entropy S = alpha^2 ln P, alpha = 2 (docs/algorithms.md §6.5; Baranau et al., Soft Matter 9, 3361
+    (2013)).
 
     P is the fraction of uniform random points y whose pore radius r(y) = min_i(|y - x_i| - a_i/2) exceeds ā/4.
     Points are drawn in chunks of 10^6 from the stream of ``seed`` (in box units, so the estimate is identical
