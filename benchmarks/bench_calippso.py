@@ -11,8 +11,8 @@
 A path is ``solver[:threads][+crossover]``: ``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover),
 ``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only as the
 fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is the reference: every other path
-must give the same contact network, the same rattlers and force balance <= 1e-10 (printed as "agree"). Times are CPU seconds of this process (the machine is
-shared: wall time is printed too but is no figure), per LP and in total.
+must give the same contact network, the same rattlers and force balance <= 1e-10 (printed as "agree"). Times are
+CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and in total.
 
 The default start is made by spherejam's Lubachevsky-Stillinger engine (d = 3): LS at ``--rate`` to reduced
 pressure ``--pressure`` (1e5), then the MLS loop with p_max = ``--pressure`` (rates 1e-2 -> 1e-4), so that the
