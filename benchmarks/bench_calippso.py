@@ -68,7 +68,7 @@ TARGETS = {1024: 2.0, 10_000: 300.0, 16384: 1800.0}
 
 def parse_path(text: str) -> dict:
     """``solver[:threads][+crossover]`` -> run_calippso keyword arguments."""
-    crossover = text.endswith("+crossover")
+    crossover = True if text.endswith("+crossover") else None  # None: run_calippso's pairing for the solver
     solver, _, threads = text.removesuffix("+crossover").partition(":")
     return {"solver": solver, "threads": int(threads or 1), "crossover": crossover}
 
@@ -117,12 +117,17 @@ def report(label: str, start: Packing, result, cpu: float) -> None:
               f"{MEAN_FIELD_THETA_E})")
 
 
+def _by_pair(result) -> np.ndarray:
+    """The contact forces ordered by their pair (i, j), so that two results compare force to force."""
+    return result.forces[np.lexsort((result.pairs[:, 1], result.pairs[:, 0]))]
+
+
 def agreement(ref, other) -> str:
     """Same contact network and rattlers as the reference path, and both force balances <= 1e-10."""
     same_pairs = {tuple(p) for p in ref.pairs.tolist()} == {tuple(p) for p in other.pairs.tolist()}
     same_rattlers = bool(np.array_equal(ref.rattlers, other.rattlers))
     balanced = max(ref.force_balance_residual, other.force_balance_residual) <= 1e-10
-    df = float(np.max(np.abs(np.sort(ref.forces) - np.sort(other.forces)))) if same_pairs else float("nan")
+    df = float(np.max(np.abs(_by_pair(ref) - _by_pair(other)))) if same_pairs else float("nan")
     ok = same_pairs and same_rattlers and balanced and ref.isostatic == other.isostatic
     return (f"same contacts {same_pairs}, same rattlers {same_rattlers}, force balance <= 1e-10 {balanced}, "
             f"max |f - f_ref| {df:.1e} (units of the mean), delta phi {other.phi - ref.phi:.1e} -> "

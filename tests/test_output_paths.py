@@ -205,6 +205,10 @@ BAD_INPUT = [  # the issue's tracebacks and endless runs, now one line and exit 
     (["ls", "IN", "--rate", "0.1", "--events-per-particle", "1000000000000000000000", "-o", "x.h5"],
      "--events-per-particle"),
     (["mls", "IN", "--decrease-factor", "1e300", "-o", "x.h5"], "--decrease-factor"),
+    (["browse", "NC", "--plot"], "--plot"),  # --plot needs --packing
+    (["browse", "NC", "--figure", "fig2", "--packing", "ls/sigma0/rate1/r0"], "--figure"),
+    (["render", "IN", "-o", "x.png", "--size", "100000"], "--size"),
+    (["import", "DATA", "--box", "-1", "-o", "x.h5"], "--box"),
     (["mls", "IN", "--initial-rate", "1", "--final-rate", "5", "-o", "x.h5"], "--final-rate"),
     (["mls", "IN", "--final-rate", "1e-7", "--decrease-factor", "50", "-o", "x.h5"], "--decrease-factor"),
     (["analyze", "IN", "--pore-samples", "1000000000000000"], "--pore-samples"),
@@ -226,7 +230,7 @@ BAD_INPUT = [  # the issue's tracebacks and endless runs, now one line and exit 
 @pytest.mark.parametrize("argv, needle", BAD_INPUT)
 def test_bad_input_is_one_line_and_exit_2(files, tmp_path, monkeypatch, argv, needle):
     monkeypatch.chdir(tmp_path)
-    code, err = cli(*[{"IN": files / "p.h5", "NC": files / "ds.nc"}.get(a, a) for a in argv])
+    code, err = cli(*[{"IN": files / "p.h5", "NC": files / "ds.nc", "DATA": files / "p.data"}.get(a, a) for a in argv])
     assert code == 2 and len(err) == 1 and needle in err[0], err
     assert list(tmp_path.iterdir()) == []
 

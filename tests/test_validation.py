@@ -248,3 +248,13 @@ def test_cli_numbers_outside_their_limits(argv, option, bound, data, packing, tm
     code, err = cli(*[{"IN": packing, "OUT": out}.get(a, a) for a in argv], repr(value))
     assert code == 2 and len(err) == 1 and option in err[0], err
     assert not out.exists()
+
+
+def test_extra_rates_count_toward_the_run_limit():
+    from spherejam.validation import MAX_RUNS
+
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    validation.check_config(cfg)
+    cfg["ls"]["extra_rates"] = [{"sigmas": cfg["sigmas"], "rates": {"min": 1e-4, "max": 1.0, "count": MAX_RUNS}}]
+    with pytest.raises(InputError, match="runs: at most"):
+        validation.check_config(cfg)

@@ -108,6 +108,7 @@ from .lp_constraints import constraint_rows, pair_vectors, pairs_in_cutoff, part
 from .neighbours import pairs_within
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .runs import History, Progress
+from .validation import LP_SOLVERS
 
 #: Default regime thresholds on sqrt(Gamma_prev) - 1 (docs §1.3).
 REGIME_THRESHOLDS = (5e-4, 1e-5)
@@ -127,7 +128,7 @@ CHECKPOINT_KIND = "calippso"
 METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3, "vertex": 4}
 #: The HiGHS solvers an LP can be sent to: HiPO (sparse-direct interior point, needs highspy-extras), IPX
 #: (interior point), dual simplex.
-SOLVERS = ("hipo", "ipx", "simplex")
+SOLVERS = LP_SOLVERS
 #: Smallest N that ``solver="auto"`` sends to HiPO with a certified vertex; below it IPX + crossover was faster
 #: (N = 1024: 2.6 s against 5.0 s per run; N = 2048: 116 s against 137 s; docs/cluster.md).
 AUTO_HIPO_MIN_N = 4096
@@ -883,8 +884,8 @@ def run_calippso(
               zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval, checkpoint_interval,
               regime_thresholds)
     require(solver in (*SOLVERS, "auto"), "solver", solver, f"must be one of auto, {', '.join(SOLVERS)}")
-    if solver == "auto":
-        solver = "hipo" if packing.n >= AUTO_HIPO_MIN_N else "ipx"
+    if solver == "auto":  # without highspy-extras HiGHS has no HiPO
+        solver = "hipo" if packing.n >= AUTO_HIPO_MIN_N and _highspy_extras() is not None else "ipx"
     if crossover is None:
         crossover = solver != "hipo"
     require(isinstance(threads, (int, np.integer)) and threads >= 1, "threads", threads, "must be an integer >= 1")
@@ -910,6 +911,7 @@ def run_calippso(
         "solver": solver, "threads": int(threads), "crossover": bool(crossover),
         "highs_version": _highs_version(),
     }
+    warm_start = warm_start and n < WARM_START_MAX_N  # no basis is kept either: the force LP starts cold too
 
     history = History()
     sqrt_gamma_prev = float(initial_sqrt_gamma)
@@ -957,14 +959,14 @@ def run_calippso(
         cpu0 = time.process_time()
         # a warm-started HiGHS solve is faster than the active-set pivots (measured: failed attempts cost more than
         # the successful ones save), so the main loop uses the shortcut only when there is no basis to start from
-        if predicted is not None and (basis is None or regime == 1 or n >= WARM_START_MAX_N):
+        if predicted is not None and (basis is None or regime == 1):
             t_try = time.perf_counter()
             sol = solve_active_set(rij, sigma2, pi, pj, n, *predicted, s_bound=sb, pinned=pinned,
                                    gamma_bounds=(1.0, gamma_max))
             if sol is None:
                 lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
         if sol is None:
-            warm = basis if regime > 1 and warm_skip == 0 and n < WARM_START_MAX_N else None
+            warm = basis if regime > 1 and warm_skip == 0 else None
             warm_skip = max(warm_skip - 1, 0)
             sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=pinned, gamma_bounds=(1.0, gamma_max),
                            tolerance=solver_tolerance, options=solver_options, iteration=iteration, warm=warm,
@@ -1122,6 +1124,13 @@ def run_calippso(
 _BLAS_THREADS: list[int] = []
 
 
+def _highspy_extras():
+    """The import spec of highspy-extras (HiPO's libraries), or None if it is not installed."""
+    import importlib.util
+
+    return importlib.util.find_spec("highspy_extras")
+
+
 def _limit_blas_threads(threads: int) -> None:
     """Give HiPO's BLAS (OpenBLAS linked into highspy-extras) ``threads`` threads.
 
@@ -1131,9 +1140,8 @@ def _limit_blas_threads(threads: int) -> None:
     if _BLAS_THREADS == [threads]:
         return
     import ctypes
-    import importlib.util
 
-    spec = importlib.util.find_spec("highspy_extras")
+    spec = _highspy_extras()
     if spec is None or not spec.submodule_search_locations:
         return
     for lib in sorted(Path(next(iter(spec.submodule_search_locations))).glob("libhighs_extras*.so*")):

@@ -68,6 +68,9 @@ class MLSController(Controller):
         self.initial_rate = float(initial_rate)
         self.decrease_factor = float(decrease_factor)
         self.final_rate = float(final_rate)
+        self.final_stage = 0  # the first k with gamma_0 / f^k <= the final rate, as after_window computes the rates
+        while self.initial_rate / self.decrease_factor**self.final_stage > self.final_rate:
+            self.final_stage += 1
         self.max_equilibration_windows = int(max_equilibration_windows)
         self.restarts = 0  # k
         self.equilibration_count = 0
@@ -117,10 +120,7 @@ class MLSController(Controller):
         return {"stage": self.stage}
 
     def progress_fields(self) -> dict[str, Any]:
-        final_k = 0  # the first k with gamma_0 / f^k <= the final rate, as after_window computes the rates
-        while self.initial_rate / self.decrease_factor**final_k > self.final_rate:
-            final_k += 1
-        return {"stage": self.stage, "γ": self.rate, "stages left": max(final_k - self.restarts, 0)}
+        return {"stage": self.stage, "γ": self.rate, "stages left": max(self.final_stage - self.restarts, 0)}
 
     _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows",
               "stall_reference", "stall_count", "stalled_stages")

@@ -166,8 +166,10 @@ class Experiment:
         if not self.grid_enabled:
             return []
         g = self.grid
+        # the experiment's own rate values (equal to the grid's under fmt), so grid runs match their packing exactly
+        canonical = {float(s): {fmt(x): x for x in self.rates_for("ls", float(s))} for s in g["sigmas"]}
         sources = [
-            Run("ls", float(s), float(r), k)
+            Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k)
             for s in g["sigmas"]
             for r in rate_grid(g["ls_rates"])
             for k in range(int(g.get("replicas", 1)))

@@ -131,7 +131,7 @@ def phi_rcp_lognormal(sigma: float, n_diameters: int = 2000, n_chords: int = 300
         raise ValueError(f"sigma={sigma!r}: must be a finite number >= 0")
     s = float(s_of_sigma(sigma))
     d = np.exp(s * ndtri((np.arange(n_diameters) + 0.5) / n_diameters))
-    rods = (d[:, None] * np.sqrt((np.arange(n_chords) + 0.5) / n_chords)[None, :]).ravel()
+    rods = np.outer(d, _chords(1.0, n_chords)).ravel()
     return pack_rods(rods, f)
 
 

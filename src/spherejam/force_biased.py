@@ -45,6 +45,7 @@ from .checkpoint import load_checkpoint, save_checkpoint
 from .errors import PackingFileError, SimulationError, require
 from .neighbours import cell_sort, fold
 from .packing import Packing, ball_volume
+from .progress import rate as per_second
 from .runs import Progress, RunResult
 
 #: Outer spheres start at this multiple of the nominal density (Bezrukov et al. 2002).
@@ -522,11 +523,12 @@ def run_fb(
         rho_in = compute_forces()
         rho_out = _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim)
         iteration += 1
-        history.add(iteration, rho_in, rho_out, elapsed())
+        t = elapsed()
+        history.add(iteration, rho_in, rho_out, t)
         phi_in, phi_out = phi_nominal * rho_in**dim, phi_nominal * rho_out**dim
         progress.update(f"iteration {iteration}: phi_inner {phi_in:.6f}, phi_outer {phi_out:.6f}",
                         fields={"iteration": iteration, "φ_in": phi_in, "φ_out": phi_out,
-                                "iterations/s": iteration / max(elapsed(), 1e-9)},
+                                "iterations/s": per_second(iteration, t)},
                         bar=(phi_in / phi_out, "φ_in/φ_out"))
         if checkpoint is not None and time.perf_counter() - last_checkpoint >= checkpoint_interval:
             save_state()

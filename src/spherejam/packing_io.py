@@ -103,17 +103,19 @@ def read_group(path: str | os.PathLike, group: str) -> dict[str, np.ndarray]:
                 return {}
             return {k: v[()] for k, v in f[group].items()}
     except OSError as exc:
-        _fail(path, f"not a readable HDF5 packing file ({str(exc).splitlines()[0]})")
+        reject_file(path, f"not a readable HDF5 packing file ({str(exc).splitlines()[0]})")
 
 
-def _fail(path, problem: str):
+def reject_file(path, problem: str):
+    """Raise the one-line error of a bad input file: ``<path>: <problem>``."""
     raise PackingFileError(f"{path}: {problem}")
 
 
 def _read_attrs(path, f) -> dict[str, Any]:
     a = f.attrs
     if a.get("format") != FORMAT:
-        _fail(path, f"not a spherejam packing file (format attribute is {a.get('format')!r}, expected {FORMAT!r})")
+        reject_file(path, f"not a spherejam packing file (format attribute is {a.get('format')!r}, "
+                          f"expected {FORMAT!r})")
     meta: dict[str, Any] = {}
     try:
         meta.update(json.loads(a.get("metadata", "{}")))
@@ -126,7 +128,7 @@ def _read_attrs(path, f) -> dict[str, Any]:
             "package_versions": json.loads(a.get("package_versions", "{}")),
         }
     except (json.JSONDecodeError, TypeError) as exc:
-        _fail(path, f"corrupt JSON attribute ({exc})")
+        reject_file(path, f"corrupt JSON attribute ({exc})")
     for key in _SCALAR_KEYS:
         if key in a:
             value = a[key]
@@ -147,19 +149,19 @@ def read_packing(
     """
     path = Path(path)
     if not path.exists():
-        _fail(path, "no such file")
+        reject_file(path, "no such file")
     if path.is_dir():
-        _fail(path, "is a directory, not a packing file")
+        reject_file(path, "is a directory, not a packing file")
     h5py = _h5py()
     try:
         with h5py.File(path, "r") as f:
             meta = _read_attrs(path, f)
             for name in ("positions", "diameters"):
                 if name not in f or not isinstance(f[name], h5py.Dataset):
-                    _fail(path, f"missing dataset '{name}'")
+                    reject_file(path, f"missing dataset '{name}'")
             pos_ds, dia_ds = f["positions"], f["diameters"]
             if pos_ds.dtype != np.float64 or dia_ds.dtype != np.float64:
-                _fail(path, f"datasets must be float64 (positions {pos_ds.dtype}, diameters {dia_ds.dtype})")
+                reject_file(path, f"datasets must be float64 (positions {pos_ds.dtype}, diameters {dia_ds.dtype})")
             positions = pos_ds[()]
             diameters = dia_ds[()]
             box = float(f.attrs.get("box", math.nan))
@@ -171,7 +173,7 @@ def read_packing(
     except (OSError, KeyError, ValueError, TypeError) as exc:
         # h5py reports truncated or non-HDF5 files as OSError with internal detail; keep the first line only.
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        _fail(path, f"not a readable HDF5 packing file ({reason})")
+        reject_file(path, f"not a readable HDF5 packing file ({reason})")
     packing = validated_packing(path, positions, diameters, box, meta, tolerance)
     return (packing, history or {}) if with_history else packing
 
@@ -188,19 +190,19 @@ def validated_packing(
     positions = np.asarray(positions)
     diameters = np.asarray(diameters)
     if positions.ndim != 2 or not 2 <= positions.shape[1] <= 5:
-        _fail(path, f"positions have shape {positions.shape}, expected (N, d) with 2 <= d <= 5")
+        reject_file(path, f"positions have shape {positions.shape}, expected (N, d) with 2 <= d <= 5")
     if diameters.shape != (positions.shape[0],):
-        _fail(path, f"diameters have shape {diameters.shape}, expected ({positions.shape[0]},)")
+        reject_file(path, f"diameters have shape {diameters.shape}, expected ({positions.shape[0]},)")
     if positions.shape[0] < 2:
-        _fail(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
+        reject_file(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
     if not (math.isfinite(box) and box > 0):
-        _fail(path, f"box side is {box!r}, expected a finite number > 0")
+        reject_file(path, f"box side is {box!r}, expected a finite number > 0")
     if not np.all(np.isfinite(positions)):
-        _fail(path, "positions contain NaN or infinity")
+        reject_file(path, "positions contain NaN or infinity")
     if not (np.all(np.isfinite(diameters)) and np.all(diameters > 0)):
-        _fail(path, "diameters must be finite and > 0")
+        reject_file(path, "diameters must be finite and > 0")
     if np.any(positions < 0) or np.any(positions >= box):
-        _fail(path, f"positions lie outside the box [0, {box})")
+        reject_file(path, f"positions lie outside the box [0, {box})")
     packing = Packing(positions, diameters, box, metadata or {})
     if tolerance is not None:
         try:

@@ -123,7 +123,6 @@ def table4() -> pd.DataFrame:
     entries of that sigma. Cells neither printed nor derivable are NaN.
     """
     t2 = table2()
-    t3 = table3()
     out = pd.DataFrame(index=pd.Index([float(s) for s in TABLE34_SIGMAS], name="sigma"))
     for col, values in _TABLE4_PRINTED.items():
         out[col] = [float(v) for v in values]
@@ -134,12 +133,6 @@ def table4() -> pd.DataFrame:
             if len(vals) == len(TABLE2_METHODS):
                 out.at[sigma, "phi_GCP"] = float(vals.mean())
                 out.at[sigma, "phi_GCP_derived"] = True
-        for col, src in (("phi_LT", "phi_min"), ("phi_RCP", "phi_max")):
-            if math.isnan(out.at[sigma, col]):
-                vals = t3[t3.sigma == sigma][src]
-                if len(vals) == 2 and vals.notna().all():
-                    out.at[sigma, col] = float(vals.mean())
-                    out.at[sigma, f"{col}_derived"] = True
     return out[["phi_LT", "phi_RCP", "phi_GCP", "phi_LT_derived", "phi_RCP_derived", "phi_GCP_derived"]]
 
 

@@ -396,7 +396,8 @@ def compute_tables(ds) -> dict[str, pd.DataFrame]:
 
 
 #: The files :func:`write_tables` writes into its folder.
-TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") for ext in ("csv", "md", "tex"))
+TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") for ext in ("csv", "md", "tex")) + (
+    "comparison.csv", "comparison.md")
 
 
 def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
@@ -425,7 +426,7 @@ def comparison_markdown(tables: dict[str, pd.DataFrame], comp: pd.DataFrame | No
     """The "Comparison with the paper" text: the flags first, then the three tables."""
     comp = comparison(tables) if comp is None else comp
     lines = ["# Comparison with the paper", "", paper_reference.CITATION, ""]
-    flagged = comp[comp.note.str.startswith("φ_GCP < φ_RCP")]
+    flagged = comp[comp.note == GCP_BELOW_RCP]
     if len(flagged):
         lines.append("**Flagged (φ_GCP < φ_RCP, a sign of too little data):** " + "; ".join(
             f"{r.table} σ = {r.sigma:g} {r.row} {r.quantity}".replace("  ", " ") for _, r in flagged.iterrows()))

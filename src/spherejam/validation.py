@@ -146,6 +146,10 @@ CALIPPSO_ITERATIONS = Bound(1, 1_000_000, integer=True)
 FB_ITERATIONS = Bound(0, 10**12, integer=True)
 OVERLAP_TOLERANCE = Bound(0.0, 1.0)
 THREADS = Bound(1, 256, integer=True)
+IMAGE_SIZE = Bound(16, 8192, integer=True)
+BOX_SIDE = Bound(0.0, None, lo_open=True)
+#: The HiGHS solvers CALiPPSO's LPs can be sent to (here, not in calippso.py, so that the CLI need not load numba).
+LP_SOLVERS = ("hipo", "ipx", "simplex")
 
 
 def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
@@ -204,8 +208,7 @@ def check_config(config: Any) -> dict:
         except InputError as exc:
             raise InputError(f"{protocol}.{exc}") from None
         bound = LS_RATE if protocol == "ls" else FB_RATE
-        for i, r in enumerate(rates):
-            bound.check(f"{protocol}.rates[{i}]", r)
+        total += len(rates) * len(config["sigmas"]) * int(config.get("replicas", 1))
         for k, extra in enumerate(config[protocol].get("extra_rates") or []):
             where = f"{protocol}.extra_rates[{k}]"
             for i, s in enumerate(extra.get("sigmas", [])):
@@ -216,7 +219,7 @@ def check_config(config: Any) -> dict:
                 raise InputError(f"{where}.{exc}") from None
             for i, r in enumerate(extra_rates):
                 bound.check(f"{where}.rates[{i}]", r)
-        total += len(rates) * len(config["sigmas"]) * int(config.get("replicas", 1))
+            total += len(extra_rates) * len(extra.get("sigmas", [])) * int(config.get("replicas", 1))
     if total > MAX_RUNS:
         raise InputError(f"sigmas x rates x replicas = {total} runs: at most {MAX_RUNS}")
     return config

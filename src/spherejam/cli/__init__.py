@@ -89,24 +89,6 @@ def main(argv: list[str] | None = None) -> int:
 # helpers shared by the command modules --------------------------------------------------------------------------
 
 
-def int_at_least(minimum: int):
-    """An argparse type: an integer >= ``minimum``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"{text!r} must be >= {minimum}")
-        return value
-
-    return parse
-
-
-positive_int = int_at_least(1)
-
-
 def finite_float(text: str) -> float:
     try:
         value = float(text)

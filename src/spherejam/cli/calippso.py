@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from ..output_paths import check_outputs, output_file
-from ..validation import CALIPPSO_ITERATIONS, THREADS
+from ..validation import CALIPPSO_ITERATIONS, LP_SOLVERS, THREADS
 from . import EXIT_FAILED, finite_float
 
 
@@ -23,8 +23,7 @@ def register(sub) -> None:
                    help="max |s| of non-rattlers, units of the largest diameter (1e-9)")
     p.add_argument("--cutoff", type=finite_float, default=None,
                    help="regime-1 cutoff l0, units of the initial largest diameter (default 2 = 4 radii)")
-    # the choices of calippso.SOLVERS, not imported here: it loads numba, and `spherejam --help` should stay fast
-    p.add_argument("--solver", choices=("auto", "hipo", "ipx", "simplex"), default="auto",
+    p.add_argument("--solver", choices=("auto", *LP_SOLVERS), default="auto",
                    help="HiGHS solver of a cold LP: auto (default: hipo from N = 4096 on, else ipx), hipo "
                         "(sparse-direct interior point), ipx, simplex")
     p.add_argument("--threads", type=THREADS.arg, default=1,

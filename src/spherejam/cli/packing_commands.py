@@ -6,8 +6,8 @@ import json
 from pathlib import Path
 
 from ..output_paths import check_output_dir, check_outputs, output_file
-from ..validation import FIELDS, OVERLAP_TOLERANCE
-from . import EXIT_FAILED, finite_float, seed_int
+from ..validation import BOX_SIDE, FIELDS, OVERLAP_TOLERANCE
+from . import EXIT_FAILED, seed_int
 
 
 def register(sub) -> None:
@@ -53,7 +53,7 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--tolerance", type=OVERLAP_TOLERANCE.arg, default=1e-10,
                    help="relative overlap tolerance, 0 ... 1 (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
-    p.add_argument("--box", type=finite_float, default=None,
+    p.add_argument("--box", type=BOX_SIDE.arg, default=None,
                    help="calippso-jl only: side L of the periodic cube, which the file does not hold (default 1)")
     p.add_argument("--frame", type=int, default=None, help="gsd only: frame to read (default -1, the last)")
     p.set_defaults(func=_import)
@@ -145,22 +145,20 @@ def _export(args) -> int:
 
 
 def _import(args) -> int:
-    from ..errors import InputError, require
+    from ..errors import InputError
     from ..formats import guess_format, read
-    from ..formats.packing_generation import file_set
+    from ..formats.packing_generation import CONF, NFO, XYZD, file_set
     from ..packing_io import write_packing
 
     fmt = args.format or guess_format(args.path)
     inputs = {"path": args.path}
     if fmt == "packing-generation":  # the folder's three files are all inputs
-        inputs.update(zip(("packing.xyzd", "packing.nfo", "generation.conf"), file_set(args.path)))
+        inputs.update(zip((XYZD, NFO, CONF), file_set(args.path)))
     check_outputs({"-o/--output": args.output}, inputs=inputs)
-    require(args.tolerance >= 0, "--tolerance", args.tolerance, "must be >= 0")
     options = {}
     if args.box is not None:
         if fmt != "calippso-jl":
             raise InputError(f"--box={args.box!r}: only the calippso-jl format needs a box side")
-        require(args.box > 0, "--box", args.box, "must be > 0")
         options["box"] = args.box
     if args.frame is not None:
         if fmt != "gsd":

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
 from ..output_paths import check_outputs, output_file
-from . import finite_float, int_at_least
+from ..validation import IMAGE_SIZE
+from . import finite_float
 
 
 def register(sub) -> None:
@@ -14,7 +14,7 @@ def register(sub) -> None:
     p.add_argument("path", type=Path, help="packing file (.h5)")
     p.add_argument("-o", "--output", type=output_file, action="append", required=True,
                    help="image file, .png or .pdf (repeat for both; the scene is rendered once)")
-    p.add_argument("--size", type=int_at_least(16), default=800,
+    p.add_argument("--size", type=IMAGE_SIZE.arg, default=800,
                    help="rendered image side in pixels, 16 ... 8192 (800)")
     p.add_argument("--sigma", type=finite_float,
                    help="nominal sigma to print (default: the sample's std(D)/mean)")
@@ -26,8 +26,6 @@ def _render(args) -> int:
     from ..packing_io import read_packing
     from ..render import write_images
 
-    if args.size > 8192:
-        raise InputError(f"--size={args.size}: must be <= 8192 pixels")
     check_outputs({f"-o/--output #{k + 1}": out for k, out in enumerate(args.output)}, inputs={"path": args.path})
     packing = read_packing(args.path)
     for path in write_images(packing, args.output, (args.size, args.size), args.sigma, args.title):

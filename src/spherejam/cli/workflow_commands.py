@@ -134,6 +134,10 @@ def _browse(args) -> int:
 
     from ..dataset import open_dataset
 
+    if args.plot and args.packing is None:
+        raise InputError("--plot: needs --packing KEY (the packing whose MLS history to draw)")
+    if args.figure and args.packing is not None:
+        raise InputError("--figure: not with --packing (redraw a figure, or look at one packing)")
     outputs, stem = {"--csv": args.csv}, None
     if args.figure:
         from ..figures import FIGURES
@@ -205,11 +209,8 @@ def _browse(args) -> int:
 
 
 def _browse_packing(args, ds, stem: Path | None) -> int:
-    from ..errors import InputError
     from ..packing_record import describe, locate, mls_history_figure
 
-    if args.packing is None:
-        raise InputError("--plot: needs --packing KEY (the packing whose MLS history to draw)")
     for line in describe(args.dataset, ds, args.packing):
         print(line)
     if args.plot:

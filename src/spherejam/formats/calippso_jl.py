@@ -20,59 +20,54 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_output
-from ..errors import PackingFileError
 from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..packing_io import validated_packing
-
-
-def _fail(path, problem: str):
-    raise PackingFileError(f"{path}: {problem}")
+from ..packing_io import reject_file, validated_packing
 
 
 def _floats(path, lineno: int, line: str) -> list[float]:
     try:
         return [float(t) for t in line.split()]
     except ValueError:
-        _fail(path, f"line {lineno}: {line.strip()[:60]!r} is not a row of numbers")
+        reject_file(path, f"line {lineno}: {line.strip()[:60]!r} is not a row of numbers")
 
 
 def _integer(path, lineno: int, line: str, what: str) -> int:
     try:
         return int(line.strip())
     except ValueError:
-        _fail(path, f"line {lineno}: {line.strip()[:60]!r} is not an integer ({what})")
+        reject_file(path, f"line {lineno}: {line.strip()[:60]!r} is not an integer ({what})")
 
 
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE, box: float = 1.0) -> Packing:
     """Read a CALiPPSO.jl example-style file; ``box`` is the side L of the periodic cube (not in the file)."""
     path = Path(path)
     if not path.is_file():
-        _fail(path, "no such file")
+        reject_file(path, "no such file")
     try:
         lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
     except UnicodeDecodeError:
-        _fail(path, "not a text file")
+        reject_file(path, "not a text file")
     if len(lines) < 3:
-        _fail(path, f"{len(lines)} non-empty line(s); expected d, N and the centres")
+        reject_file(path, f"{len(lines)} non-empty line(s); expected d, N and the centres")
     dim = _integer(path, 1, lines[0], "the dimension d")
     n = _integer(path, 2, lines[1], "the number of spheres N")
     if not 2 <= dim <= 5:
-        _fail(path, f"line 1: dimension d={dim}, expected 2 to 5")
+        reject_file(path, f"line 1: dimension d={dim}, expected 2 to 5")
     if n < 2:
-        _fail(path, f"line 2: N={n}; a packing needs at least 2 spheres")
+        reject_file(path, f"line 2: N={n}; a packing needs at least 2 spheres")
     first = _floats(path, 3, lines[2])
     monodisperse = len(first) == 1
     rows = lines[3:] if monodisperse else lines[2:]
     width = dim if monodisperse else dim + 1
     if len(rows) != n:
-        _fail(path, f"holds {len(rows)} centre line(s) but line 2 says N={n}")
+        reject_file(path, f"holds {len(rows)} centre line(s) but line 2 says N={n}")
     start = 4 if monodisperse else 3
     table = np.empty((n, width))
     for k, line in enumerate(rows):
         values = _floats(path, start + k, line)
         if len(values) != width:
             what = f"{dim} coordinates" if monodisperse else f"{dim} coordinates and a radius"
-            _fail(path, f"line {start + k}: {len(values)} numbers, expected {what}")
+            reject_file(path, f"line {start + k}: {len(values)} numbers, expected {what}")
         table[k] = values
     if monodisperse:
         diameters = np.full(n, first[0])

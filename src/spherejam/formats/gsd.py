@@ -19,7 +19,7 @@ import numpy as np
 from ..atomic import atomic_output
 from ..errors import PackingFileError
 from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..packing_io import validated_packing
+from ..packing_io import reject_file, validated_packing
 
 LOG_POSITION = "spherejam/position"
 LOG_DIAMETER = "spherejam/diameter"
@@ -34,41 +34,37 @@ def _hoomd():
     return gsd.hoomd
 
 
-def _fail(path, problem: str):
-    raise PackingFileError(f"{path}: {problem}")
-
-
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE, frame: int = -1) -> Packing:
     """Read frame ``frame`` (default: the last) of a GSD file as a packing."""
     path = Path(path)
     if not path.is_file():
-        _fail(path, "no such file")
+        reject_file(path, "no such file")
     hoomd = _hoomd()
     try:
         with hoomd.open(path, "r") as traj:
             count = len(traj)
             if count == 0:
-                _fail(path, "holds no frames")
+                reject_file(path, "holds no frames")
             if not -count <= frame < count:
-                _fail(path, f"frame {frame} does not exist (the file holds {count} frame(s))")
+                reject_file(path, f"frame {frame} does not exist (the file holds {count} frame(s))")
             snap = traj[frame]
     except PackingFileError:
         raise
     except (RuntimeError, OSError, KeyError, ValueError) as exc:
-        _fail(path, f"not a readable GSD file ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})")
+        reject_file(path, f"not a readable GSD file ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})")
     dim = int(snap.configuration.dimensions)
     lx, ly, lz, *tilts = (float(v) for v in snap.configuration.box)
     if any(t != 0 for t in tilts):
-        _fail(path, f"box tilts {tilts}: spherejam packings are cubes (no tilt)")
+        reject_file(path, f"box tilts {tilts}: spherejam packings are cubes (no tilt)")
     if (dim == 3 and not lx == ly == lz) or (dim == 2 and lx != ly) or dim not in (2, 3):
-        _fail(path, f"box {[lx, ly, lz]} in d={dim}: spherejam packings are cubes (all sides equal)")
+        reject_file(path, f"box {[lx, ly, lz]} in d={dim}: spherejam packings are cubes (all sides equal)")
     box = lx
     n = int(snap.particles.N)
     log = snap.log or {}
     if LOG_POSITION in log and LOG_DIAMETER in log and LOG_BOX in log:
         box = float(np.asarray(log[LOG_BOX]).reshape(-1)[0])
         if abs(box - lx) > 1e-6 * abs(box):
-            _fail(path, f"the exact box side {box!r} in {LOG_BOX} disagrees with configuration/box {lx!r}")
+            reject_file(path, f"the exact box side {box!r} in {LOG_BOX} disagrees with configuration/box {lx!r}")
         positions = np.asarray(log[LOG_POSITION], dtype=np.float64)
         diameters = np.asarray(log[LOG_DIAMETER], dtype=np.float64)
         precision = "float64"
@@ -76,12 +72,13 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
         centred = np.asarray(snap.particles.position, dtype=np.float64)[:, :dim]
         half = 0.5 * box
         if np.any(centred < -half) or np.any(centred > half):
-            _fail(path, f"positions lie outside the box [-{half!r}, {half!r}]")
+            reject_file(path, f"positions lie outside the box [-{half!r}, {half!r}]")
         positions = np.mod(centred + half, box)
+        positions[positions >= box] = 0.0  # np.mod can round up to box for tiny negatives
         diameters = np.asarray(snap.particles.diameter, dtype=np.float64)
         precision = "float32"
     if positions.shape[0] != n or diameters.shape != (n,):
-        _fail(path, f"particles/N is {n} but the file holds {positions.shape[0]} positions and "
+        reject_file(path, f"particles/N is {n} but the file holds {positions.shape[0]} positions and "
                     f"{diameters.shape[0]} diameters")
     source = {"format": "gsd", "files": [str(path)], "frame": int(frame), "precision": precision}
     return validated_packing(path, positions, diameters, box, {"algorithm": "imported", "source": source},

@@ -17,7 +17,7 @@ import numpy as np
 from ..atomic import atomic_output
 from ..errors import PackingFileError
 from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..packing_io import validated_packing
+from ..packing_io import reject_file, validated_packing
 
 #: Section headers of a LAMMPS data file (a line holding only one of these starts a section).
 SECTIONS = ("Atoms", "Velocities", "Masses", "Ellipsoids", "Lines", "Triangles", "Bodies", "Bonds", "Angles",
@@ -26,19 +26,15 @@ SECTIONS = ("Atoms", "Velocities", "Masses", "Ellipsoids", "Lines", "Triangles",
 _BOUNDS = re.compile(r"^\s*(\S+)\s+(\S+)\s+([xyz])lo\s+[xyz]hi\s*$")
 
 
-def _fail(path, problem: str):
-    raise PackingFileError(f"{path}: {problem}")
-
-
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE) -> Packing:
     """Read a LAMMPS data file (atom style sphere) as a 3D packing."""
     path = Path(path)
     if not path.is_file():
-        _fail(path, "no such file")
+        reject_file(path, "no such file")
     try:
         lines = path.read_text().splitlines()
     except UnicodeDecodeError:
-        _fail(path, "not a text file")
+        reject_file(path, "not a text file")
     n = None
     bounds: dict[str, tuple[float, float]] = {}
     k = 1  # line 1 is a comment by definition
@@ -50,28 +46,28 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
             try:
                 n = int(text.split()[0])
             except ValueError:
-                _fail(path, f"line {k + 1}: {lines[k].strip()!r} does not give the number of atoms")
+                reject_file(path, f"line {k + 1}: {lines[k].strip()!r} does not give the number of atoms")
         elif text.endswith("xy xz yz"):
             try:
                 tilted = any(float(v) != 0 for v in text.split()[:3])
             except ValueError:
-                _fail(path, f"line {k + 1}: {lines[k].strip()!r} is not three tilt factors")
+                reject_file(path, f"line {k + 1}: {lines[k].strip()!r} is not three tilt factors")
             if tilted:
-                _fail(path, f"line {k + 1}: a triclinic box; spherejam packings are cubes")
+                reject_file(path, f"line {k + 1}: a triclinic box; spherejam packings are cubes")
         elif _BOUNDS.match(text):
             m = _BOUNDS.match(text)
             try:
                 bounds[m.group(3)] = (float(m.group(1)), float(m.group(2)))
             except ValueError:
-                _fail(path, f"line {k + 1}: {lines[k].strip()!r} is not two numbers")
+                reject_file(path, f"line {k + 1}: {lines[k].strip()!r} is not two numbers")
         k += 1
     if n is None:
-        _fail(path, "no 'N atoms' line in the header")
+        reject_file(path, "no 'N atoms' line in the header")
     if sorted(bounds) != ["x", "y", "z"]:
-        _fail(path, "the header needs 'xlo xhi', 'ylo yhi' and 'zlo zhi' lines")
+        reject_file(path, "the header needs 'xlo xhi', 'ylo yhi' and 'zlo zhi' lines")
     sides = {a: hi - lo for a, (lo, hi) in bounds.items()}
     if not sides["x"] == sides["y"] == sides["z"]:
-        _fail(path, f"box sides {[sides[a] for a in 'xyz']}: spherejam packings are cubes (all sides equal)")
+        reject_file(path, f"box sides {[sides[a] for a in 'xyz']}: spherejam packings are cubes (all sides equal)")
     box = sides["x"]
     origin = np.array([bounds[a][0] for a in "xyz"])
     atoms = None
@@ -80,17 +76,18 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
         if header.strip() == "Atoms":
             style = comment.strip()
             if style and style.split()[0] != "sphere":
-                _fail(path, f"line {k + 1}: atom style '{style}', expected 'sphere' (id type diameter density x y z)")
+                reject_file(path, f"line {k + 1}: atom style '{style}', expected 'sphere' "
+                            "(id type diameter density x y z)")
             atoms = _atoms(path, lines, k + 1, n)
             break
         k += 1
     if atoms is None:
-        _fail(path, "no Atoms section")
+        reject_file(path, "no Atoms section")
     order = np.argsort(atoms[:, 0], kind="stable")
     atoms = atoms[order]
     ids = atoms[:, 0]
     if len(np.unique(ids)) != n:
-        _fail(path, "atom IDs are not unique")
+        reject_file(path, "atom IDs are not unique")
     positions = atoms[:, 4:7] - origin
     diameters = atoms[:, 2]
     source = {"format": "lammps", "files": [str(path)], "origin": origin.tolist()}
@@ -109,15 +106,15 @@ def _atoms(path: Path, lines: list[str], start: int, n: int) -> np.ndarray:
             break
         fields = text.split()
         if len(fields) not in (7, 10):
-            _fail(path, f"line {k + 1}: {len(fields)} columns, expected 7 (id type diameter density x y z) or 10 "
+            reject_file(path, f"line {k + 1}: {len(fields)} columns, expected 7 (id type diameter density x y z) or 10 "
                         "(with image flags)")
         try:
             rows.append([float(v) for v in fields[:7]])
         except ValueError:
-            _fail(path, f"line {k + 1}: {text[:60]!r} is not a row of numbers")
+            reject_file(path, f"line {k + 1}: {text[:60]!r} is not a row of numbers")
         k += 1
     if len(rows) != n:
-        _fail(path, f"the Atoms section holds {len(rows)} atoms but the header says {n}")
+        reject_file(path, f"the Atoms section holds {len(rows)} atoms but the header says {n}")
     return np.array(rows)
 
 

@@ -25,7 +25,7 @@ import numpy as np
 from ..atomic import atomic_output
 from ..errors import PackingFileError
 from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
-from ..packing_io import validated_packing
+from ..packing_io import reject_file, validated_packing
 
 XYZD, NFO, CONF = "packing.xyzd", "packing.nfo", "generation.conf"
 #: Relative agreement required between the nfo's Theoretical Porosity density and that of the stored diameters
@@ -35,10 +35,6 @@ DENSITY_RTOL = 1e-9
 DEFAULT_CONTRACTION_RATE = 1e-4
 
 _LINE = re.compile(r"^\s*([A-Za-z][A-Za-z ]*?)\s*:\s*(.*?)\s*$")
-
-
-def _fail(path, problem: str):
-    raise PackingFileError(f"{path}: {problem}")
 
 
 def file_set(path: str | os.PathLike) -> tuple[Path, Path, Path]:
@@ -53,7 +49,7 @@ def _key_values(path: Path) -> dict[str, str]:
     try:
         text = path.read_text()
     except UnicodeDecodeError:
-        _fail(path, "not a text file")
+        reject_file(path, "not a text file")
     out = {}
     for line in text.splitlines():
         m = _LINE.match(line)
@@ -64,14 +60,14 @@ def _key_values(path: Path) -> dict[str, str]:
 
 def _number(path: Path, values: dict[str, str], key: str, kind=float, count: int = 1):
     if key.lower() not in values:
-        _fail(path, f"no '{key}:' line")
+        reject_file(path, f"no '{key}:' line")
     text = values[key.lower()].split("(")[0].split()  # "0.35 (Tolerance: 1.0001)" -> "0.35"
     try:
         numbers = [kind(t) for t in text[:count]]
     except ValueError:
         numbers = []
     if len(numbers) != count or not all(math.isfinite(x) for x in numbers):
-        _fail(path, f"'{key}: {values[key.lower()]}' is not {count} finite number(s)")
+        reject_file(path, f"'{key}: {values[key.lower()]}' is not {count} finite number(s)")
     return numbers[0] if count == 1 else numbers
 
 
@@ -80,20 +76,20 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
     xyzd, nfo, conf = file_set(path)
     for p in (xyzd, conf):
         if not p.is_file():
-            _fail(p, "no such file (a packing-generation file set needs packing.xyzd and generation.conf)")
+            reject_file(p, "no such file (a packing-generation file set needs packing.xyzd and generation.conf)")
     values = _key_values(conf)
     n = _number(conf, values, "Particles count", int)
     sides = _number(conf, values, "Packing size", float, 3)
     if "boundaries mode" in values and _number(conf, values, "Boundaries mode", int) != 1:
-        _fail(conf, f"Boundaries mode {values['boundaries mode']}: only 1 (periodic bulk) is a periodic packing")
+        reject_file(conf, f"Boundaries mode {values['boundaries mode']}: only 1 (periodic bulk) is a periodic packing")
     if not (sides[0] == sides[1] == sides[2]):
-        _fail(conf, f"Packing size {sides}: spherejam packings are cubes (all three sides equal)")
+        reject_file(conf, f"Packing size {sides}: spherejam packings are cubes (all three sides equal)")
     box = sides[0]
     size = xyzd.stat().st_size
     if size % 32:
-        _fail(xyzd, f"{size} bytes is not a whole number of spheres (32 bytes each: x y z d as float64)")
+        reject_file(xyzd, f"{size} bytes is not a whole number of spheres (32 bytes each: x y z d as float64)")
     if size // 32 != n:
-        _fail(xyzd, f"holds {size // 32} spheres but {conf.name} says Particles count {n}")
+        reject_file(xyzd, f"holds {size // 32} spheres but {conf.name} says Particles count {n}")
     data = np.fromfile(xyzd, dtype="<f8").reshape(-1, 4).astype(np.float64)
     positions, stored = data[:, :3], data[:, 3]
     source = {"format": "packing-generation", "files": [str(xyzd), str(conf)], "scale": 1.0}
@@ -104,18 +100,18 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
         info = _key_values(nfo)
         n_nfo = _number(nfo, info, "N", int)
         if n_nfo != n:
-            _fail(nfo, f"N {n_nfo} disagrees with {conf.name} (Particles count {n})")
+            reject_file(nfo, f"N {n_nfo} disagrees with {conf.name} (Particles count {n})")
         dims = _number(nfo, info, "Dimensions", float, 3)
         if dims != sides:
-            _fail(nfo, f"Dimensions {dims} disagree with {conf.name} (Packing size {sides})")
+            reject_file(nfo, f"Dimensions {dims} disagree with {conf.name} (Packing size {sides})")
         theoretical = _number(nfo, info, "Theoretical Porosity")
         final = _number(nfo, info, "Final Porosity")
         if not (0 <= theoretical < 1 and 0 <= final < 1):
-            _fail(nfo, f"porosities must lie in [0, 1) (Theoretical {theoretical!r}, Final {final!r})")
+            reject_file(nfo, f"porosities must lie in [0, 1) (Theoretical {theoretical!r}, Final {final!r})")
         if np.all(np.isfinite(stored)):
             density = float(np.sum(ball_volume(stored, 3))) / box**3
             if not abs(density - (1.0 - theoretical)) <= DENSITY_RTOL * (1.0 - theoretical):
-                _fail(nfo, f"Theoretical Porosity {theoretical!r} disagrees with the diameters in {xyzd.name} "
+                reject_file(nfo, f"Theoretical Porosity {theoretical!r} disagrees with the diameters in {xyzd.name} "
                            f"(porosity {1.0 - density!r}): the diameters were rescaled after generation or the "
                            "files belong to different packings")
         scale = ((1.0 - final) / (1.0 - theoretical)) ** (1.0 / 3.0)
