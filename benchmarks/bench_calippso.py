@@ -35,8 +35,8 @@ import time
 
 import numpy as np
 
-from spherejam.calippso import METHOD_CODES, MEAN_FIELD_GAMMA, MEAN_FIELD_THETA_E, distributions, run_calippso
-from spherejam.packing import Packing
+from spherejam.calippso.run import MEAN_FIELD_GAMMA, MEAN_FIELD_THETA_E, METHOD_CODES, distributions, run_calippso
+from spherejam.core.packing import Packing
 
 
 def read_dat(path: str) -> Packing:
@@ -50,9 +50,9 @@ def read_dat(path: str) -> Packing:
 
 
 def ls_start(n: int, pressure: float, rate: float, seed: int, kind: str = "mls") -> tuple[Packing, float]:
-    from spherejam.closest_jamming import find_closest_jamming
-    from spherejam.lubachevsky_stillinger import run_ls
-    from spherejam.seeding import poisson_packing
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.closest_jamming import find_closest_jamming
+    from spherejam.engines.lubachevsky_stillinger import run_ls
 
     t = time.perf_counter()
     result = run_ls(poisson_packing(n, 0.0, seed, dim=3), rate, p_max=pressure, seed=seed, progress_interval=60.0)
@@ -136,11 +136,11 @@ def agreement(ref, other) -> str:
 
 def certify_mls(n: int, seeds: list[int]) -> None:
     try:
-        from spherejam.closest_jamming import find_closest_jamming
+        from spherejam.engines.closest_jamming import find_closest_jamming
     except ImportError:
-        print("spherejam.closest_jamming.find_closest_jamming is not available; MLS certification skipped")
+        print("spherejam.engines.closest_jamming.find_closest_jamming is not available; MLS certification skipped")
         return
-    from spherejam.seeding import poisson_packing
+    from spherejam.core.seeding import poisson_packing
 
     for seed in seeds:
         t = time.perf_counter()
@@ -179,7 +179,7 @@ def main(argv=None) -> int:
         start = read_dat(args.dat)
         label = args.dat
     elif args.start:
-        from spherejam.packing_io import read_packing
+        from spherejam.core.packing_io import read_packing
 
         start = read_packing(args.start)
         label = args.start
@@ -187,7 +187,7 @@ def main(argv=None) -> int:
         start, t_ls = ls_start(args.n, args.pressure, args.rate, args.seed, args.start_kind)
         label = f"{args.start_kind.upper()} start, seed {args.seed} (made in {t_ls:.1f} s, not timed below)"
         if args.save_start:
-            from spherejam.packing_io import write_packing
+            from spherejam.core.packing_io import write_packing
 
             write_packing(args.save_start, start)
     print(f"start: {label}: N={start.n} d={start.dim} phi0={start.phi:.10f} "

@@ -21,8 +21,8 @@ import time
 
 import numpy as np
 
-from spherejam.force_biased import nominal_density_for_rate, run_fb
-from spherejam.seeding import poisson_packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.force_biased import nominal_density_for_rate, run_fb
 
 REFERENCE = {  # (N, sigma): (phi, iterations, wall s)
     (1000, 0.0): (0.59751, 121, 0.21),

@@ -21,8 +21,8 @@ import subprocess
 import sys
 import time
 
-from spherejam.lubachevsky_stillinger import run_ls
-from spherejam.seeding import poisson_packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.lubachevsky_stillinger import run_ls
 
 RATE = 1e-2
 
@@ -44,8 +44,8 @@ def bench_case(n: int, sigma: float, rate: float = RATE) -> dict:
 
 
 def cold_start() -> float:
-    code = ("import time; t=time.perf_counter(); from spherejam.seeding import poisson_packing; "
-            "from spherejam.lubachevsky_stillinger import run_ls; "
+    code = ("import time; t=time.perf_counter(); from spherejam.core.seeding import poisson_packing; "
+            "from spherejam.engines.lubachevsky_stillinger import run_ls; "
             "run_ls(poisson_packing(200, 0.0, seed=1), 0.1, max_collisions=1, progress_interval=1e9); "
             "print(time.perf_counter()-t)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

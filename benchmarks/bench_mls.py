@@ -6,7 +6,7 @@ Reference: the paper's code takes ~7 min for N = 1e3 at sigma = 0.3 and 10-20 h 
 
 A run cut by ``--max-wall-time`` prints its progress and an extrapolated total, marked as such, from an expected
 number of collisions per particle: ``--collisions-per-particle``, else the cost model of
-:mod:`spherejam.cluster_resources` (2.4e5 at N = 1e3, growing as N^0.66: ~1.1e6 at N = 1e4, the mean of five
+:mod:`spherejam.workflow.cost_model` (2.4e5 at N = 1e3, growing as N^0.66: ~1.1e6 at N = 1e4, the mean of five
 measured searches).
 
     python benchmarks/bench_mls.py                                   # N = 1e3, sigma 0 and 0.3
@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import time
 
-from spherejam.closest_jamming import find_closest_jamming
-from spherejam.cluster_resources import mls_collisions_per_particle
-from spherejam.lubachevsky_stillinger import run_ls
-from spherejam.seeding import poisson_packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.closest_jamming import find_closest_jamming
+from spherejam.engines.lubachevsky_stillinger import run_ls
+from spherejam.workflow.cost_model import mls_collisions_per_particle
 
 
 def main() -> None:

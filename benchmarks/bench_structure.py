@@ -1,4 +1,5 @@
-"""Time the whole structure analysis (spherejam.structure.analyze) at N = 10^4, part by part; check Z of MLS packings.
+"""Time the whole structure analysis (spherejam.analysis.structure.analyze) at N = 10^4, part by part; check Z of
+MLS packings.
 
     python benchmarks/bench_structure.py                 # FB packing, N = 10^4 (target: analysis <= 5 s)
     python benchmarks/bench_structure.py --input P.h5    # any packing file, e.g. an MLS packing at p = 1e12
@@ -18,15 +19,15 @@ import time
 
 import numpy as np
 
-from spherejam import contacts, structure
-from spherejam.packing_io import read_packing
-from spherejam.seeding import poisson_packing
+from spherejam.analysis import contacts, structure
+from spherejam.core.packing_io import read_packing
+from spherejam.core.seeding import poisson_packing
 
 
 def dense_packing(n: int, seed: int):
     """A dense random packing (phi ~ 0.6) from the force-biased algorithm, or None if it is not available."""
     try:
-        from spherejam.force_biased import run_fb
+        from spherejam.engines.force_biased import run_fb
     except ImportError:
         return None
     return run_fb(poisson_packing(n, 0.0, seed), 1e-3, phi_nominal=0.68, progress_interval=1e9).packing
@@ -68,10 +69,10 @@ def time_analysis(packing, repeats: int) -> None:
 
 def mls_check(n: int, seed: int) -> int:
     try:
-        from spherejam.closest_jamming import find_closest_jamming
+        from spherejam.engines.closest_jamming import find_closest_jamming
     except ImportError:
-        print("spherejam.closest_jamming.find_closest_jamming is not available yet. To run the check by hand: jam a"
-              " packing with MLS to p = 1e12, then `spherejam analyze PACKING.h5 --scan` and read z_nonrattler"
+        print("spherejam.engines.closest_jamming.find_closest_jamming is not available yet. To run the check by hand:"
+              " jam a packing with MLS to p = 1e12, then `spherejam analyze PACKING.h5 --scan` and read z_nonrattler"
               " (expect 6 +- 0.05) and rattler_fraction (a few percent).")
         return 0
     start = dense_packing(n, seed)

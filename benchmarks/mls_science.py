@@ -3,9 +3,10 @@
 For each seed: Poisson packing -> LS at a fast rate (1/gamma < 5) -> MLS with the paper's parameters; optionally
 also LS at a slow rate (1/gamma >= 100) -> MLS. Prints, per packing, phi after LS, phi_J, the MLS stages, collisions,
 wall time, the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
-:func:`spherejam.contacts.analyze_contacts`, and the reference code's fixed 1e-7) and the crystalline fraction
-(:func:`spherejam.structure.crystalline_fraction`: monodisperse searches can nucleate crystals, paper §IV.A), then a
-summary against the paper's band of its sigma (Table 3, :mod:`spherejam.paper_reference`; sigma = 0: phi_J in
+:func:`spherejam.analysis.contacts.analyze_contacts`, and the reference code's fixed 1e-7) and the crystalline fraction
+(:func:`spherejam.analysis.structure.crystalline_fraction`: monodisperse searches can nucleate crystals, paper
+§IV.A), then a
+summary against the paper's band of its sigma (Table 3, :mod:`spherejam.workflow.paper_reference`; sigma = 0: phi_J in
 [0.6356, 0.6406] for fast packings of N = 1e4, the minimum being the one surviving phi_min row, LS or FB).
 
     python benchmarks/mls_science.py --n 1000 --seeds 1 2 3 4 5 --slow-seeds 1
@@ -27,13 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from spherejam import paper_reference
-from spherejam.closest_jamming import find_closest_jamming
-from spherejam.contacts import analyze_contacts
-from spherejam.lubachevsky_stillinger import run_ls
-from spherejam.packing_io import write_packing
-from spherejam.seeding import poisson_packing
-from spherejam.structure import crystalline_fraction
+from spherejam.analysis.contacts import analyze_contacts
+from spherejam.analysis.structure import crystalline_fraction
+from spherejam.core.packing_io import write_packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.closest_jamming import find_closest_jamming
+from spherejam.engines.lubachevsky_stillinger import run_ls
+from spherejam.workflow import paper_reference
+
 
 def paper_band(sigma: float) -> tuple[float, float] | None:
     """The paper's Table 3 band at sigma: (surviving phi_min^fast row, LS or FB; LS phi_max^fast), None if absent."""

@@ -32,11 +32,11 @@ from collections import Counter
 
 import numpy as np
 
-from spherejam.closest_jamming import find_closest_jamming
-from spherejam.errors import InputError, SimulationError
-from spherejam.force_biased import run_fb
-from spherejam.lubachevsky_stillinger import run_ls
-from spherejam.seeding import poisson_packing
+from spherejam.core.errors import InputError, SimulationError
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.closest_jamming import find_closest_jamming
+from spherejam.engines.force_biased import run_fb
+from spherejam.engines.lubachevsky_stillinger import run_ls
 
 OVERLAP_LIMIT = 1e-10
 

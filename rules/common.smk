@@ -4,12 +4,12 @@ import os
 
 from snakemake.exceptions import WorkflowError
 
-from spherejam import cluster_resources
-from spherejam.errors import InputError
-from spherejam.experiment import Experiment, parse_run
-from spherejam.validation import validate_config
+from spherejam.workflow import cost_model as cluster_resources
+from spherejam.core.errors import InputError
+from spherejam.workflow.experiment import Experiment, parse_run
+from spherejam.core.validation import validate_config
 
-try:  # the schema (filling in its defaults), then the limits and consistency rules of spherejam.validation
+try:  # the schema (filling in its defaults), then the limits and consistency rules of spherejam.core.validation
     validate_config(config, workflow.source_path("../config/schema.yaml"))
 except InputError as exc:
     raise WorkflowError(str(exc)) from None
@@ -58,7 +58,7 @@ def mls_options():
 
 
 def resources_for(stage, mls_parameters=None):
-    """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.cluster_resources).
+    """SLURM resources of a job, estimated from N, gamma and the protocol (spherejam.workflow.cost_model).
 
     ``mls_parameters(wildcards)`` gives the MLS initial rate, decrease factor and final rate of MLS jobs.
     """

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from spherejam import InputError
-from spherejam.bands import band_edges, lower_quantile, quantile_interval, upper_quantile
+from spherejam.workflow.bands import band_edges, lower_quantile, quantile_interval, upper_quantile
 
 # 20 values, shuffled; sorted they are 0.630, 0.631, ..., 0.649
 VALUES = np.array([0.630 + 0.001 * k for k in (7, 19, 0, 12, 3, 15, 8, 1, 18, 10, 5, 13, 2, 16, 9, 4, 17, 11, 6, 14)])

@@ -9,16 +9,16 @@ import math
 import numpy as np
 import pytest
 
-from spherejam.calippso import (
+from spherejam.calippso.constraints import constraint_rows, pair_vectors, pairs_in_cutoff
+from spherejam.calippso.run import (
     cutoff_and_bound,
     distributions,
     fit_cumulative_power_law,
     run_calippso,
     solve_lp,
 )
-from spherejam.errors import InputError, OverlapError, SimulationError
-from spherejam.lp_constraints import constraint_rows, pair_vectors, pairs_in_cutoff
-from spherejam.packing import Packing, ball_volume
+from spherejam.core.errors import InputError, OverlapError, SimulationError
+from spherejam.core.packing import Packing, ball_volume
 
 
 def rsa_packing(n: int, phi: float, dim: int, seed: int = 0, size_ratio: float = 1.0) -> Packing:
@@ -209,7 +209,7 @@ def test_checkpoint_resume_reaches_the_same_packing(tmp_path):
 
 def test_cli_calippso(tmp_path, capsys):
     from spherejam.cli import main
-    from spherejam.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing, write_packing
 
     src, out = tmp_path / "in.h5", tmp_path / "out.h5"
     write_packing(src, rsa_packing(96, 0.35, 3, seed=5))
@@ -232,8 +232,8 @@ def test_power_law_fit_recovers_exponent():
 
 def test_mls_output_is_certified():
     """An MLS output (closest jammed state) is already jammed: CALiPPSO moves phi by <= 1e-4, isostatic."""
-    cj = pytest.importorskip("spherejam.closest_jamming")
-    from spherejam.seeding import poisson_packing
+    cj = pytest.importorskip("spherejam.engines.closest_jamming")
+    from spherejam.core.seeding import poisson_packing
 
     mls = cj.find_closest_jamming(poisson_packing(64, 0.0, 2, dim=3), progress_interval=1e9)
     result = run_calippso(mls.packing)
@@ -285,8 +285,8 @@ def test_warm_started_lp_matches_cold_solve():
 def test_failed_warm_starts_back_off_and_fall_back_to_interior_point():
     """A warm start that runs out of pivots falls back to interior point (same optimum); after k failures in a
     row the next 2^k - 1 LPs skip it, so an LP that never warm-starts well costs O(log) wasted attempts."""
-    from spherejam.lubachevsky_stillinger import run_ls
-    from spherejam.seeding import poisson_packing
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.lubachevsky_stillinger import run_ls
 
     start = run_ls(poisson_packing(128, 0.0, 3), 1e-2, p_max=1e5, seed=3, progress_interval=1e9).packing
     normal = run_calippso(start)
@@ -307,8 +307,8 @@ def test_failed_warm_starts_back_off_and_fall_back_to_interior_point():
 @pytest.fixture(scope="module")
 def ls_jammed_256():
     """An LS packing compressed to p = 1e12 (jammed at that pressure): CALiPPSO certifies it in a few LPs."""
-    from spherejam.lubachevsky_stillinger import run_ls
-    from spherejam.seeding import poisson_packing
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.lubachevsky_stillinger import run_ls
 
     # rate 1e-3: glassy (phi 0.6487, 12 rattlers); faster LS starts creep, and degenerate LPs let paths diverge
     return run_ls(poisson_packing(256, 0.0, 1), 1e-3, p_max=1e12, seed=1, progress_interval=1e9).packing
@@ -358,7 +358,7 @@ def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
 def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
     """HiPO + certified vertices (the default from N = 4096 on) and IPX + crossover (the default below) certify the
     same jammed state: the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
-    from spherejam.calippso import SOLVER_CODES
+    from spherejam.calippso.run import SOLVER_CODES
 
     old = run_calippso(ls_jammed_256)  # solver="auto" at N = 256: IPX + crossover
     assert old.packing.metadata["parameters"]["solver"] == "ipx"
@@ -381,9 +381,9 @@ def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
 
 
 def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
-    from spherejam.calippso import SOLVER_CODES, SOLVERS
+    from spherejam.calippso.run import SOLVER_CODES, SOLVERS
     from spherejam.cli import build_parser, main
-    from spherejam.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing, write_packing
 
     src, out = tmp_path / "in.h5", tmp_path / "out.h5"
     write_packing(src, ls_jammed_256)

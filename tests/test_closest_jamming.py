@@ -8,10 +8,10 @@ fewer stages (final rate 1e-2, factor 4) on small N to stay fast. The science ch
 import numpy as np
 import pytest
 
-from spherejam.closest_jamming import MLSController, find_closest_jamming
-from spherejam.errors import InputError
-from spherejam.lubachevsky_stillinger import WindowStats, run_ls
-from spherejam.seeding import poisson_packing
+from spherejam.core.errors import InputError
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.closest_jamming import MLSController, find_closest_jamming
+from spherejam.engines.lubachevsky_stillinger import WindowStats, run_ls
 
 QUICK = {"final_rate": 1e-2, "decrease_factor": 4.0, "progress_interval": 1e9}
 
@@ -87,7 +87,7 @@ def test_mls_from_ls_start_polydisperse():
 
 
 def test_mls_from_fb_start():
-    fb = pytest.importorskip("spherejam.force_biased")
+    fb = pytest.importorskip("spherejam.engines.force_biased")
     start = fb.run_fb(poisson_packing(120, 0.0, seed=3), 1e-2, progress_interval=1e9).packing
     result = find_closest_jamming(start, seed=5, initial_rate=1.0, **QUICK)
     _assert_jammed_result(result, start)
@@ -185,7 +185,7 @@ def test_max_collisions_cut_is_deterministic_and_marked():
 
 def test_cli_mls(tmp_path):
     from spherejam.cli import main
-    from spherejam.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing, write_packing
 
     src = tmp_path / "in.h5"
     write_packing(src, poisson_packing(60, 0.0, seed=4))
@@ -268,7 +268,7 @@ def test_stall_rule_state_round_trips_and_old_checkpoints_load():
 
 def test_cli_mls_stall_flags(tmp_path):
     from spherejam.cli import main
-    from spherejam.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing, write_packing
 
     src = tmp_path / "in.h5"
     write_packing(src, poisson_packing(40, 0.0, seed=4))

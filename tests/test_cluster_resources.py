@@ -1,4 +1,4 @@
-"""SLURM resource estimates (spherejam.cluster_resources): calibration, monotonicity, limits and input checks."""
+"""SLURM resource estimates (spherejam.workflow.cost_model): calibration, monotonicity, limits and input checks."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from spherejam import cluster_resources as cr
-from spherejam.errors import InputError
+from spherejam.core.errors import InputError
+from spherejam.workflow import cost_model as cr
 
 # LS collisions per particle from a Poisson start to p = 1e12, N = 1000, sigma = 0: our engine and the reference
 # C++ code (reference-benchmark.md), at gamma = 1e-1, 1e-2, 1e-3.
@@ -164,13 +164,13 @@ def test_module_imports_nothing_heavy():
             imported |= {a.name.split(".")[0] for a in node.names}
         elif isinstance(node, ast.ImportFrom):
             imported.add("." * node.level + (node.module or ""))
-    assert imported <= {"__future__", "math", "operator", "os", "dataclasses", ".errors"}
+    assert imported <= {"__future__", "math", "operator", "os", "dataclasses", "..core.errors"}
 
 
 def test_plan_counts_the_workflows_jobs():
     import yaml
 
-    from spherejam.experiment import Experiment
+    from spherejam.workflow.experiment import Experiment
 
     root = Path(__file__).resolve().parents[1]
     config = yaml.safe_load((root / "config" / "config.yaml").read_text())
@@ -198,7 +198,7 @@ def test_cost_command_prints_the_module_table(tmp_path, capsys):
     configs = [str(root / "config.yaml"), str(root / "paper.yaml")]
     assert main(["cost", *configs]) == 0
     table = capsys.readouterr().out
-    assert cr.main(configs) == 0  # `python -m spherejam.cluster_resources` prints the same
+    assert cr.main(configs) == 0  # `python -m spherejam.workflow.cost_model` prints the same
     assert capsys.readouterr().out == table
     plan = cr.plan(cr.load_configs(*configs))
     total_jobs = sum(row["jobs"] for row in plan.values())

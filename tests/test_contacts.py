@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from spherejam import contacts
-from spherejam.errors import InputError
-from spherejam.packing import Packing
+from spherejam.analysis import contacts
+from spherejam.core.errors import InputError
+from spherejam.core.packing import Packing
 
 
 def fcc(m: int, diameter: float = np.sqrt(0.5)) -> Packing:

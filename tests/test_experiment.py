@@ -2,12 +2,11 @@
 
 import pytest
 import yaml
+from test_workflow import ROOT
 
 from spherejam import InputError
-from spherejam.cluster_resources import load_configs
-from spherejam.experiment import Experiment
-
-from test_workflow import ROOT
+from spherejam.workflow.cost_model import load_configs
+from spherejam.workflow.experiment import Experiment
 
 
 def tiny():
@@ -48,7 +47,7 @@ def test_extra_rates_apply_to_their_sigmas_only():
 
 def test_reproduction_config_is_complete_and_within_its_budget():
     """config/reproduction.yaml stands alone (every section) and the cost model keeps it within 8 CPU-hours."""
-    from spherejam.cluster_resources import plan
+    from spherejam.workflow.cost_model import plan
 
     cfg = yaml.safe_load((ROOT / "config" / "reproduction.yaml").read_text())
     schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())

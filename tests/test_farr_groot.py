@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from spherejam import farr_groot as fg
+from spherejam.analysis import farr_groot as fg
 
 SIGMAS = [0.0, 0.05, 0.10, 0.15, 0.20, 0.25, 0.30]
 # docs/farr_groot.md: s = sqrt(ln(1 + sigma^2)) and Farr's (2013) fit phi(s), rounded to 4 digits

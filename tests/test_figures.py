@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from spherejam import figures
-from spherejam.farr_groot import phi_rcp_lognormal
-from spherejam.packing import Packing
-from spherejam.packing_io import write_packing
-from spherejam.paper_reference import table4 as paper_table4
+from spherejam.analysis.farr_groot import phi_rcp_lognormal
+from spherejam.core.packing import Packing
+from spherejam.core.packing_io import write_packing
+from spherejam.workflow import figures
+from spherejam.workflow.paper_reference import table4 as paper_table4
 
 GCP0 = 0.647  # not the usual 0.65, so the figures must read it from the config
 GRID_RATES = (2.0, 0.1, 0.005)
@@ -81,7 +81,7 @@ def _edge_marks(ax, left):
 
 
 def test_fig2_lines_and_edge_marks(ds):
-    from spherejam.tables import compute_tables
+    from spherejam.workflow.tables import compute_tables
 
     fig = figures.fig2(ds)
     axes = fig.axes
@@ -146,7 +146,7 @@ def test_fig5_farr_groot_and_paper_table4(ds):
 
 
 def test_fig6_typical_band_from_table4(ds):
-    from spherejam.tables import compute_tables
+    from spherejam.workflow.tables import compute_tables
 
     t4 = compute_tables(ds)["table4"].set_index("sigma")
     fig = figures.fig6(ds)
@@ -182,7 +182,7 @@ def test_paper_layout_draws(tmp_path):
 
 
 def _need_ovito():
-    from spherejam.render import ovito_available
+    from spherejam.workflow.render import ovito_available
 
     if not ovito_available():
         if os.environ.get("CI", "").lower() == "true" or os.environ.get("SPHEREJAM_REQUIRE_RENDER") == "1":
@@ -202,7 +202,7 @@ def test_render_draws_the_spheres(tmp_path):
     _need_ovito()
     import matplotlib.pyplot as plt
 
-    from spherejam.render import render_spheres
+    from spherejam.workflow.render import render_spheres
 
     ink = []
     for scale in (0.5, 1.0):
@@ -231,7 +231,7 @@ def test_render_command(tmp_path):
 def test_fig1_is_in_all_only_when_asked_for(tmp_path, render):
     import yaml
 
-    from spherejam.experiment import Experiment
+    from spherejam.workflow.experiment import Experiment
 
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     cfg = yaml.safe_load(open(os.path.join(root, "config", "tiny.yaml")))
@@ -249,8 +249,8 @@ def test_fig1_is_in_all_only_when_asked_for(tmp_path, render):
 
 
 def test_render_without_ovito_says_how_to_get_it(tmp_path, monkeypatch):
-    from spherejam.errors import SpherejamError
-    from spherejam.render import write_images
+    from spherejam.core.errors import SpherejamError
+    from spherejam.workflow.render import write_images
 
     for name in ("ovito", "ovito.data", "ovito.pipeline", "ovito.vis"):
         monkeypatch.setitem(sys.modules, name, None)  # import fails as on a machine without the extra

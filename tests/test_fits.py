@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spherejam import InputError
-from spherejam.fits import design_matrix, fit_gcp
+from spherejam.workflow.fits import design_matrix, fit_gcp
 
 TRUE = np.array([0.6612, -0.05, 0.3, -1.2])
 

@@ -5,13 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from spherejam import force_biased as fb
-from spherejam import neighbours
 from spherejam.cli import main
-from spherejam.errors import InputError, PackingFileError
-from spherejam.packing import Packing
-from spherejam.packing_io import read_packing, write_packing
-from spherejam.seeding import poisson_packing
+from spherejam.core import neighbours
+from spherejam.core.errors import InputError, PackingFileError
+from spherejam.core.packing import Packing
+from spherejam.core.packing_io import read_packing, write_packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines import force_biased as fb
+from spherejam.engines.kernels import force_biased as kernels
 
 
 def _same_run(a, b):
@@ -37,9 +38,9 @@ def test_forces_match_brute_force_bezrukov(rng):
     pos = rng.random((n, 3)) * box
     dia = rng.uniform(0.6, 1.4, n)
     m = neighbours.cells_per_side(box, rho_out * dia.max() + 0.3, 3, n)
-    start, nbr = fb._build_verlet(pos, dia, box, rho_out, 0.3, m, 64 * n)
+    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, 0.3, m, 64 * n)
     forces = np.empty_like(pos)
-    h = fb._forces(pos, dia, box, rho_out, start, nbr, forces, np.empty(3))
+    h = kernels.forces(pos, dia, box, rho_out, start, nbr, forces, np.empty(3))
     expected = np.zeros_like(pos)
     hmin = np.inf
     for i in range(n):
@@ -66,9 +67,9 @@ def test_verlet_list_matches_brute_force(rng, box):
     dia *= (0.5 * box**3 / n / (np.pi / 6 * np.mean(dia**3))) ** (1 / 3)
     rho_out, skin = 1.06, 0.2
     m = neighbours.cells_per_side(box, rho_out * np.quantile(dia, 0.5) + skin, 3, n)
-    start, nbr = fb._build_verlet(pos, dia, box, rho_out, skin, m, 4)  # tiny capacity: must report overflow
+    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, skin, m, 4)  # tiny capacity: must report overflow
     assert len(start) == 0
-    start, nbr = fb._build_verlet(pos, dia, box, rho_out, skin, m, 64 * n)
+    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, skin, m, 64 * n)
     got = {(i, int(j)) for i in range(n) for j in nbr[start[i]:start[i + 1]]}
     bi, bj, _ = neighbours.brute_force_pairs(pos, dia * rho_out, box, 1.0)  # within rho_out D_ij ...
     inner = set(zip(bi.tolist(), bj.tolist()))
@@ -87,7 +88,7 @@ def test_move_wraps_any_displacement():
     pos = np.array([[0.1, 9.9, 5.0], [5.0, 5.0, 5.0]])
     forces = np.array([[-1234.5, 987.6, 1e6], [0.0, 0.0, -3e-17]])
     drift = np.zeros_like(pos)
-    fb._move(pos, np.ones(2), 10.0, forces, 1.0, drift)
+    kernels.move(pos, np.ones(2), 10.0, forces, 1.0, drift)
     assert np.all(pos >= 0) and np.all(pos < 10.0)
     np.testing.assert_allclose(pos[0], np.mod([0.1 - 1234.5, 9.9 + 987.6, 5.0 + 1e6], 10.0), atol=1e-9)
     np.testing.assert_array_equal(drift, forces)
@@ -221,4 +222,4 @@ def test_cli_fb(tmp_path, capsys):
                  "--checkpoint", str(ck)]) == 1
     assert ck.exists() and not (tmp_path / "b.h5").exists()
     assert main(["-q", "fb", str(src), "--rate", "2", "-o", str(tmp_path / "c.h5")]) == 2
-    assert "--rate: '2'" in capsys.readouterr().err  # refused by the option's limit (spherejam.validation)
+    assert "--rate: '2'" in capsys.readouterr().err  # refused by the option's limit (spherejam.core.validation)

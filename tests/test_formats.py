@@ -10,9 +10,9 @@ import pytest
 
 from spherejam import formats
 from spherejam.cli import main
-from spherejam.packing import Packing
-from spherejam.packing_io import read_packing, write_packing
-from spherejam.seeding import poisson_packing
+from spherejam.core.packing import Packing
+from spherejam.core.packing_io import read_packing, write_packing
+from spherejam.core.seeding import poisson_packing
 
 
 @pytest.fixture(scope="module")

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from spherejam import event_driven as ed
-from spherejam.errors import InputError
-from spherejam.lubachevsky_stillinger import LSEngine, maxwell_velocities, run_ls
-from spherejam.packing import Packing
-from spherejam.seeding import poisson_packing
+from spherejam.core.errors import InputError
+from spherejam.core.packing import Packing
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.kernels import event_driven as ed
+from spherejam.engines.lubachevsky_stillinger import LSEngine, maxwell_velocities, run_ls
 
 T = 0.2
 
@@ -228,7 +228,7 @@ def test_checkpoint_resume_finishes_identically(tmp_path):
 
 
 def test_checkpoint_of_another_run_is_refused(tmp_path):
-    from spherejam.errors import PackingFileError
+    from spherejam.core.errors import PackingFileError
 
     packing = poisson_packing(100, 0.0, seed=3)
     ckpt = tmp_path / "c.h5"
@@ -274,7 +274,7 @@ def test_too_few_spheres_or_wrong_dimension_rejected():
 
 def test_cli_ls_writes_a_valid_packing(tmp_path, capsys):
     from spherejam.cli import main
-    from spherejam.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing, write_packing
 
     src = tmp_path / "in.h5"
     write_packing(src, poisson_packing(200, 0.1, seed=6))

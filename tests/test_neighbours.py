@@ -4,8 +4,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spherejam import neighbours
-from spherejam.packing import Packing
+from spherejam.core import neighbours
+from spherejam.core.packing import Packing
 
 
 def _as_set(i, j):

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from spherejam.cli import main
-from spherejam.errors import InputError
-from spherejam.output_paths import check_output_dir, check_outputs, figure_stem
+from spherejam.core.errors import InputError
+from spherejam.core.output_paths import check_output_dir, check_outputs, figure_stem
 
 
 def cli(*args):

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from spherejam import PackingFileError
-from spherejam.packing import Packing
-from spherejam.packing_io import export_xyz, read_packing, write_packing
-from spherejam.seeding import poisson_packing
+from spherejam.core.packing import Packing
+from spherejam.core.packing_io import export_xyz, read_packing, write_packing
+from spherejam.core.seeding import poisson_packing
 
 
 def test_round_trip_is_bitwise(tmp_path):
@@ -36,7 +36,7 @@ def test_atomic_write_leaves_nothing_on_crash(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("killed mid-write")
 
-    monkeypatch.setattr("spherejam.packing_io.provenance", boom)
+    monkeypatch.setattr("spherejam.core.packing_io.provenance", boom)
     with pytest.raises(RuntimeError):
         write_packing(target, p)
     assert not target.exists()

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from spherejam import paper_reference as ref
+from spherejam.workflow import paper_reference as ref
 
 
 def test_table2_hand_checked_cells():

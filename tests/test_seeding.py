@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from spherejam import InputError
-from spherejam.seeding import lognormal_diameters, poisson_packing, rng_for
+from spherejam.core.seeding import lognormal_diameters, poisson_packing, rng_for
 
 
 @pytest.mark.parametrize("sigma", [0.05, 0.1, 0.3])

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from spherejam import structure
-from spherejam.errors import InputError
-from spherejam.packing import Packing
-from spherejam.seeding import poisson_packing
+from spherejam.analysis import structure
+from spherejam.core.errors import InputError
+from spherejam.core.packing import Packing
+from spherejam.core.seeding import poisson_packing
 
 
 def fcc(m: int) -> Packing:
@@ -217,7 +217,7 @@ def test_cli_analyze_writes_the_variables(tmp_path, capsys):
     import json
 
     from spherejam.cli import main
-    from spherejam.packing_io import write_packing
+    from spherejam.core.packing_io import write_packing
 
     path = tmp_path / "fcc.h5"
     write_packing(path, fcc(3))

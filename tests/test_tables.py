@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from spherejam import figures
-from spherejam.fits import design_matrix
-from spherejam.tables import compute_tables, write_tables
+from spherejam.workflow import figures
+from spherejam.workflow.fits import design_matrix
+from spherejam.workflow.tables import compute_tables, write_tables
 
 GCP = {0.0: 0.65, 0.3: 0.678}
 COEF = np.array([0.0, -0.05, 0.3, -1.2])

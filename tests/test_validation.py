@@ -16,10 +16,10 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from spherejam import validation
 from spherejam.cli import main
-from spherejam.errors import InputError
-from spherejam.validation import FIELDS, Bound, validate_config
+from spherejam.core import validation
+from spherejam.core.errors import InputError
+from spherejam.core.validation import FIELDS, Bound, validate_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "config" / "schema.yaml"
@@ -251,7 +251,7 @@ def test_cli_numbers_outside_their_limits(argv, option, bound, data, packing, tm
 
 
 def test_extra_rates_count_toward_the_run_limit():
-    from spherejam.validation import MAX_RUNS
+    from spherejam.core.validation import MAX_RUNS
 
     cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
     validation.check_config(cfg)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
-from spherejam.cluster_resources import load_configs
+from spherejam.workflow.cost_model import load_configs
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
@@ -99,8 +99,8 @@ def tiny_run(tmp_path_factory):
 
 
 def test_tiny_end_to_end(tiny_run):
-    from spherejam.dataset import dataset_config, open_dataset
-    from spherejam.packing_io import read_packing
+    from spherejam.core.packing_io import read_packing
+    from spherejam.workflow.dataset import dataset_config, open_dataset
 
     results, _ = tiny_run
     ds = open_dataset(results / "dataset.nc")
@@ -175,7 +175,7 @@ def test_browse_one_packing(tiny_run, tmp_path, capsys):
     """browse --packing: the dataset's values and the files of one packing, its MLS history plot, and a dataset
     copied away from its results folder (what is there is listed, what is missing is said)."""
     from spherejam.cli import main
-    from spherejam.dataset import open_dataset
+    from spherejam.workflow.dataset import open_dataset
 
     results, _ = tiny_run
     key = "ls/sigma0/rate0.5/r0"  # the validation grid's source packing
@@ -221,7 +221,7 @@ def test_killed_job_rerun_completes(tiny_run, tmp_path):
     import signal
     import time
 
-    from spherejam.packing_io import read_packing
+    from spherejam.core.packing_io import read_packing
 
     results, cfg = tiny_run
     work = tmp_path / "copy"

@@ -2,27 +2,46 @@
 
 Reproduces Baranau & Tallarek, "Random-close packing limits for monodisperse and polydisperse hard spheres",
 Soft Matter 10, 3826 (2014), and certifies jamming with CALiPPSO (Artiaco et al., Phys. Rev. E 106, 055310 (2022)).
+
+The layout follows the pipeline (docs/layout.md): ``core`` (the packing, its files, the cell list), ``engines``
+(LS, MLS, FB), ``calippso``, ``analysis``, ``workflow``, ``formats`` and ``cli``. The functions a script needs are
+importable from here: ``from spherejam import poisson_packing, run_ls, find_closest_jamming``.
 """
 
 __version__ = "0.1.0"
 
-from .errors import InputError, OverlapError, PackingFileError, SimulationError, SpherejamError  # noqa: E402
+import sys  # noqa: E402
+
+from . import _moved  # noqa: E402
+from .core.errors import InputError, OverlapError, PackingFileError, SimulationError, SpherejamError  # noqa: E402
+
+#: name -> module of the public functions and classes, imported on first use: the engines pull in numba, and
+#: `import spherejam` (and Snakemake's DAG) stays light.
+_API = {
+    "Packing": "core.packing",
+    "poisson_packing": "core.seeding",
+    "read_packing": "core.packing_io",
+    "write_packing": "core.packing_io",
+    "run_ls": "engines.lubachevsky_stillinger",
+    "find_closest_jamming": "engines.closest_jamming",
+    "run_fb": "engines.force_biased",
+    "RunResult": "engines.driver",
+    "run_calippso": "calippso.run",
+}
 
 __all__ = [
-    "InputError",
-    "OverlapError",
-    "Packing",
-    "PackingFileError",
-    "SimulationError",
-    "SpherejamError",
-    "__version__",
+    "InputError", "OverlapError", "Packing", "PackingFileError", "RunResult", "SimulationError", "SpherejamError",
+    "__version__", "find_closest_jamming", "poisson_packing", "read_packing", "run_calippso", "run_fb", "run_ls",
+    "write_packing",
 ]
+
+if _moved.FINDER not in sys.meta_path:
+    sys.meta_path.append(_moved.FINDER)
 
 
 def __getattr__(name):
-    # Packing pulls in numba; importing it lazily keeps `import spherejam` (and Snakemake's DAG) light.
-    if name == "Packing":
-        from .packing import Packing
+    if name in _API:
+        import importlib
 
-        return Packing
+        return getattr(importlib.import_module(f"{__name__}.{_API[name]}"), name)
     raise AttributeError(f"module 'spherejam' has no attribute {name!r}")

@@ -3,9 +3,9 @@
 Each subcommand lives in its own module under :mod:`spherejam.cli` and exposes ``register(subparsers)``; heavy
 modules (numba engines) are imported only when their command runs, so ``spherejam --help`` stays fast.
 Errors a user can cause print one line ``spherejam <cmd>: error: ...`` and exit with status 2 (bad input) or 1
-(a check failed). Every command checks its output paths before any work (:mod:`spherejam.output_paths`) and takes
-its numeric limits from :mod:`spherejam.validation`. A closed pipe (``spherejam info x | head -1``) ends the command
-quietly with status 141, as a killed-by-SIGPIPE program would.
+(a check failed). Every command checks its output paths before any work (:mod:`spherejam.core.output_paths`) and takes
+its numeric limits from :mod:`spherejam.core.validation`. A closed pipe (``spherejam info x | head -1``) ends the
+command quietly with status 141, as a killed-by-SIGPIPE program would.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import os
 import sys
 
 from .. import __version__
-from ..errors import InputError, PackingFileError, SpherejamError
-from ..progress import live_status
+from ..core.errors import InputError, PackingFileError, SpherejamError
+from ..core.progress import live_status
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
 COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls", "cost", "render")
@@ -101,7 +101,7 @@ def finite_float(text: str) -> float:
 
 def seed_int(text: str) -> int:
     """An argparse type: a seed, 0 <= seed < 2^63 (stored as a signed 64-bit integer)."""
-    from ..validation import FIELDS
+    from ..core.validation import FIELDS
 
     return FIELDS["seed"].arg(text)
 

@@ -6,8 +6,8 @@ import json
 import math
 from pathlib import Path
 
-from ..output_paths import check_outputs, output_file
-from ..validation import PORE_SAMPLES
+from ..core.output_paths import check_outputs, output_file
+from ..core.validation import PORE_SAMPLES
 from . import finite_float, seed_int
 
 
@@ -24,7 +24,7 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--contact-tolerance", type=finite_float,
-        help="fixed relative gap tolerance for contacts (default: the plateau rule, see spherejam.contacts)",
+        help="fixed relative gap tolerance for contacts (default: the plateau rule, see spherejam.analysis.contacts)",
     )
     p.add_argument("--seed", type=seed_int, default=0, help="seed of the pore-size sampling (default 0)")
     p.add_argument(
@@ -40,10 +40,10 @@ def _finite_or_none(value: float):
 
 
 def _analyze(args) -> int:
-    from ..atomic import atomic_output
-    from ..contacts import tolerance_scan
-    from ..packing_io import read_packing
-    from ..structure import VARIABLES, analyze
+    from ..analysis.contacts import tolerance_scan
+    from ..analysis.structure import VARIABLES, analyze
+    from ..core.atomic import atomic_output
+    from ..core.packing_io import read_packing
 
     check_outputs({"-o/--output": args.output}, inputs={"path": args.path})
     packing = read_packing(args.path)

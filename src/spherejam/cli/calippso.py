@@ -6,8 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
-from ..output_paths import check_outputs, output_file
-from ..validation import CALIPPSO_ITERATIONS, LP_SOLVERS, THREADS
+from ..core.output_paths import check_outputs, output_file
+from ..core.validation import CALIPPSO_ITERATIONS, LP_SOLVERS, THREADS
 from . import EXIT_FAILED, finite_float
 
 
@@ -42,9 +42,9 @@ def register(sub) -> None:
 
 
 def _calippso(args) -> int:
-    from ..atomic import atomic_output
-    from ..calippso import contact_arrays, distributions, run_calippso
-    from ..packing_io import read_packing, write_packing
+    from ..calippso.run import contact_arrays, distributions, run_calippso
+    from ..core.atomic import atomic_output
+    from ..core.packing_io import read_packing, write_packing
 
     check_outputs({"-o/--output": args.output, "--summary": args.summary}, inputs={"path": args.path},
                   also={"--checkpoint": args.checkpoint})

@@ -20,9 +20,9 @@ def register(sub) -> None:
 def _cost(args) -> int:
     import yaml
 
-    from ..cluster_resources import load_configs, print_plan
-    from ..errors import InputError
-    from ..validation import check_config
+    from ..core.errors import InputError
+    from ..core.validation import check_config
+    from ..workflow.cost_model import load_configs, print_plan
 
     for path in args.configs:
         if not path.is_file():

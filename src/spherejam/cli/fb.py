@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..output_paths import check_outputs, output_file
-from ..validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
+from ..core.output_paths import check_outputs, output_file
+from ..core.validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
 from . import EXIT_FAILED
 
 
@@ -35,8 +35,8 @@ def register(sub) -> None:
 
 
 def _fb(args) -> int:
-    from ..force_biased import run_fb
-    from ..packing_io import read_packing, write_packing
+    from ..core.packing_io import read_packing, write_packing
+    from ..engines.force_biased import run_fb
 
     check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
     start = read_packing(args.input, tolerance=None)  # FB accepts overlapping starts

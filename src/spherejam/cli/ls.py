@@ -4,15 +4,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
-from ..output_paths import check_outputs, output_file
-from ..validation import (EVENTS_PER_PARTICLE, FIELDS, INTERVAL, LS_RATE, MAX_COLLISIONS, SECONDS, UNIT_OPEN,
-                          check_mls)
+from ..core.errors import InputError
+from ..core.output_paths import check_outputs, output_file
+from ..core.validation import (
+    EVENTS_PER_PARTICLE,
+    FIELDS,
+    INTERVAL,
+    LS_RATE,
+    MAX_COLLISIONS,
+    SECONDS,
+    UNIT_OPEN,
+    check_mls,
+)
 from . import seed_int
 
 
 def _ls_rate(text: str) -> float:
-    """An LS rate: 0 (equilibrate only) or inside the limits of :data:`spherejam.validation.LS_RATE`."""
+    """An LS rate: 0 (equilibrate only) or inside the limits of :data:`spherejam.core.validation.LS_RATE`."""
     try:
         if float(text) == 0.0:
             return 0.0
@@ -85,7 +93,7 @@ def _check_paths(args) -> None:
 
 
 def _finish(args, result, label: str) -> int:
-    from ..packing_io import write_packing
+    from ..core.packing_io import write_packing
 
     write_packing(args.output, result.packing, history=result.history)
     c = result.counters
@@ -95,8 +103,8 @@ def _finish(args, result, label: str) -> int:
 
 
 def _ls(args) -> int:
-    from ..lubachevsky_stillinger import run_ls
-    from ..packing_io import read_packing
+    from ..core.packing_io import read_packing
+    from ..engines.lubachevsky_stillinger import run_ls
 
     if args.rate == 0 and args.target_phi is None and args.max_collisions is None and args.max_wall_time is None:
         raise InputError("--rate=0: never reaches p_max; give --max-collisions, --target-phi or --max-wall-time")
@@ -108,8 +116,8 @@ def _ls(args) -> int:
 
 
 def _mls(args) -> int:
-    from ..closest_jamming import DEFAULT_STALL_WINDOWS, find_closest_jamming
-    from ..packing_io import read_packing
+    from ..core.packing_io import read_packing
+    from ..engines.closest_jamming import DEFAULT_STALL_WINDOWS, find_closest_jamming
 
     check_mls(args.initial_rate, args.decrease_factor, args.final_rate,
               ("--initial-rate", "--decrease-factor", "--final-rate"))

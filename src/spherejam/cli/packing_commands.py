@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..output_paths import check_output_dir, check_outputs, output_file
-from ..validation import BOX_SIDE, FIELDS, OVERLAP_TOLERANCE
+from ..core.output_paths import check_output_dir, check_outputs, output_file
+from ..core.validation import BOX_SIDE, FIELDS, OVERLAP_TOLERANCE
 from . import EXIT_FAILED, seed_int
 
 
@@ -60,8 +60,8 @@ def register(sub) -> None:
 
 
 def _seed(args) -> int:
-    from ..packing_io import write_packing
-    from ..seeding import poisson_packing
+    from ..core.packing_io import write_packing
+    from ..core.seeding import poisson_packing
 
     check_outputs({"-o/--output": args.output})
     packing = poisson_packing(args.n, args.sigma, args.seed, phi_nominal=args.phi_nominal, dim=args.dim)
@@ -71,7 +71,7 @@ def _seed(args) -> int:
 
 
 def summary(path: Path) -> dict:
-    from ..packing_io import read_packing
+    from ..core.packing_io import read_packing
 
     packing = read_packing(path, tolerance=None)
     i, j, h = packing.closest_pair()
@@ -118,7 +118,7 @@ def _info(args) -> int:
 
 
 def _check(args) -> int:
-    from ..packing_io import read_packing
+    from ..core.packing_io import read_packing
 
     packing = read_packing(args.path, tolerance=None)
     report = packing.check(args.tolerance)
@@ -127,9 +127,9 @@ def _check(args) -> int:
 
 
 def _export(args) -> int:
+    from ..core.packing_io import read_packing
     from ..formats import FORMATS, default_output, write
     from ..formats.packing_generation import CONF, NFO, XYZD
-    from ..packing_io import read_packing
 
     out = args.output if args.output is not None else default_output(args.path, args.format)
     name = "-o/--output" if args.output is not None else "the default output"
@@ -145,10 +145,10 @@ def _export(args) -> int:
 
 
 def _import(args) -> int:
-    from ..errors import InputError
+    from ..core.errors import InputError
+    from ..core.packing_io import write_packing
     from ..formats import guess_format, read
     from ..formats.packing_generation import CONF, NFO, XYZD, file_set
-    from ..packing_io import write_packing
 
     fmt = args.format or guess_format(args.path)
     inputs = {"path": args.path}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..output_paths import check_outputs, output_file
-from ..validation import IMAGE_SIZE
+from ..core.output_paths import check_outputs, output_file
+from ..core.validation import IMAGE_SIZE
 from . import finite_float
 
 
@@ -23,8 +23,8 @@ def register(sub) -> None:
 
 
 def _render(args) -> int:
-    from ..packing_io import read_packing
-    from ..render import write_images
+    from ..core.packing_io import read_packing
+    from ..workflow.render import write_images
 
     check_outputs({f"-o/--output #{k + 1}": out for k, out in enumerate(args.output)}, inputs={"path": args.path})
     packing = read_packing(args.path)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError, PackingFileError
-from ..output_paths import check_output_dir, check_outputs, figure_stem, output_file
+from ..core.errors import InputError, PackingFileError
+from ..core.output_paths import check_output_dir, check_outputs, figure_stem, output_file
 from . import finite_float
 
 
@@ -54,7 +54,7 @@ def register(sub) -> None:
 def _manifest(args) -> int:
     import json
 
-    from ..dataset import write_manifest
+    from ..workflow.dataset import write_manifest
 
     check_outputs({"-o/--output": args.output})
     try:
@@ -69,7 +69,7 @@ def _manifest(args) -> int:
 
 
 def _dataset(args) -> int:
-    from ..dataset import build_dataset, write_dataset
+    from ..workflow.dataset import build_dataset, write_dataset
 
     check_outputs({"-o/--output": args.output}, inputs={"manifest": args.manifest})
     ds = build_dataset(args.manifest)
@@ -80,8 +80,8 @@ def _dataset(args) -> int:
 
 
 def _tables(args) -> int:
-    from ..dataset import open_dataset
-    from ..tables import TABLE_FILES, write_tables
+    from ..workflow.dataset import open_dataset
+    from ..workflow.tables import TABLE_FILES, write_tables
 
     outdir = check_output_dir("--outdir", args.outdir, inputs={"dataset": args.dataset}, files=TABLE_FILES)
     ds = open_dataset(args.dataset)
@@ -95,8 +95,8 @@ def _tables(args) -> int:
 
 
 def _figure(args) -> int:
-    from ..dataset import open_dataset
-    from ..figures import FIGURES, draw, save_figure
+    from ..workflow.dataset import open_dataset
+    from ..workflow.figures import FIGURES, draw, save_figure
 
     if args.name not in FIGURES:
         raise InputError(f"figure={args.name!r}: must be one of {', '.join(FIGURES)}")
@@ -132,7 +132,7 @@ def _browse(args) -> int:
     import numpy as np
     import pandas as pd
 
-    from ..dataset import open_dataset
+    from ..workflow.dataset import open_dataset
 
     if args.plot and args.packing is None:
         raise InputError("--plot: needs --packing KEY (the packing whose MLS history to draw)")
@@ -140,7 +140,7 @@ def _browse(args) -> int:
         raise InputError("--figure: not with --packing (redraw a figure, or look at one packing)")
     outputs, stem = {"--csv": args.csv}, None
     if args.figure:
-        from ..figures import FIGURES
+        from ..workflow.figures import FIGURES
 
         if args.figure not in FIGURES:
             raise InputError(f"--figure={args.figure!r}: must be one of {', '.join(FIGURES)}")
@@ -190,18 +190,18 @@ def _browse(args) -> int:
     with pd.option_context("display.max_rows", 60, "display.width", 160, "display.float_format", "{:.6g}".format):
         print(shown.to_string(index=False) if len(shown) else "  (no runs match the filter)")
     if args.csv:
-        from ..atomic import atomic_output
+        from ..core.atomic import atomic_output
 
         with atomic_output(args.csv, ".csv") as tmp:
             df.to_csv(tmp, index=False)
         print(f"wrote {len(df)} rows to {args.csv}")
     if args.tables:
-        from ..tables import compute_tables, formatted
+        from ..workflow.tables import compute_tables, formatted
 
         for name, t in compute_tables(ds).items():
             print(f"\n{name}\n{formatted(name, t).to_string()}")
     if args.figure:
-        from ..figures import draw, save_figure
+        from ..workflow.figures import draw, save_figure
 
         for path in save_figure(_draw(draw, args.figure, ds, args.dataset), stem):
             print(path)
@@ -209,12 +209,12 @@ def _browse(args) -> int:
 
 
 def _browse_packing(args, ds, stem: Path | None) -> int:
-    from ..packing_record import describe, locate, mls_history_figure
+    from ..workflow.packing_record import describe, locate, mls_history_figure
 
     for line in describe(args.dataset, ds, args.packing):
         print(line)
     if args.plot:
-        from ..figures import save_figure
+        from ..workflow.figures import save_figure
 
         found = locate(args.dataset, ds, args.packing)
         if "jammed.h5" not in found.files:

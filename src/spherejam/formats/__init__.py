@@ -1,9 +1,9 @@
 """Packing file formats of other codes, read and written (one module per format; docs/formats.md).
 
-Every reader returns a :class:`~spherejam.packing.Packing` that passed the same checks as our HDF5 reader
-(:func:`spherejam.packing_io.validated_packing`: shapes, finiteness, centres inside the box, no overlap beyond the
-tolerance), or raises :class:`~spherejam.errors.PackingFileError` naming the file and the problem. Every writer
-writes through :mod:`spherejam.atomic`, so a failure leaves nothing at the output path.
+Every reader returns a :class:`~spherejam.core.packing.Packing` that passed the same checks as our HDF5 reader
+(:func:`spherejam.core.packing_io.validated_packing`: shapes, finiteness, centres inside the box, no overlap beyond the
+tolerance), or raises :class:`~spherejam.core.errors.PackingFileError` naming the file and the problem. Every writer
+writes through :mod:`spherejam.core.atomic`, so a failure leaves nothing at the output path.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 if TYPE_CHECKING:  # the CLI imports this module to list the formats; the engines' numba stays unloaded
-    from ..packing import Packing
+    from ..core.packing import Packing
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,8 @@ class Format:
 
 
 FORMATS = {f.name: f for f in (
-    Format("xyz", "spherejam.packing_io", ".xyz", "extended XYZ (OVITO, ASE), radius per particle", readable=False),
+    Format("xyz", "spherejam.core.packing_io", ".xyz", "extended XYZ (OVITO, ASE), radius per particle",
+           readable=False),
     Format("packing-generation", f"{__name__}.packing_generation", "",
            "packing-generation (C++): folder with packing.xyzd, packing.nfo, generation.conf"),
     Format("calippso-jl", f"{__name__}.calippso_jl", ".dat", "CALiPPSO.jl example input: d, N, diameter, centres"),

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_output
-from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..packing_io import reject_file, validated_packing
+from ..core.atomic import atomic_output
+from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.packing_io import reject_file, validated_packing
 
 
 def _floats(path, lineno: int, line: str) -> list[float]:

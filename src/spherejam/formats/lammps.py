@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_output
-from ..errors import PackingFileError
-from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..packing_io import reject_file, validated_packing
+from ..core.atomic import atomic_output
+from ..core.errors import PackingFileError
+from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.packing_io import reject_file, validated_packing
 
 #: Section headers of a LAMMPS data file (a line holding only one of these starts a section).
 SECTIONS = ("Atoms", "Velocities", "Masses", "Ellipsoids", "Lines", "Triangles", "Bodies", "Bonds", "Angles",

@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import atomic_output
-from ..errors import PackingFileError
-from ..packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
-from ..packing_io import reject_file, validated_packing
+from ..core.atomic import atomic_output
+from ..core.errors import PackingFileError
+from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
+from ..core.packing_io import reject_file, validated_packing
 
 XYZD, NFO, CONF = "packing.xyzd", "packing.nfo", "generation.conf"
 #: Relative agreement required between the nfo's Theoretical Porosity density and that of the stored diameters

@@ -1,11 +1,11 @@
 """Tables 2-4 of the paper from the results dataset, next to the paper's values, written as CSV, Markdown and LaTeX.
 
-* Table 2: phi_GCP from cubic fits (:mod:`spherejam.fits`) of four curves (LS/FB x initial phi / densified
+* Table 2: phi_GCP from cubic fits (:mod:`spherejam.workflow.fits`) of four curves (LS/FB x initial phi / densified
   phi_J) per sigma > 0. A fit with fewer than ``fits.min_points`` packings, or a confidence half-width above
   ``fits.max_half_width``, is "not estimable (n = ...)": its phi_GCP is NaN and ``status`` says why.
 * Table 3: the band edges of phi_J over fast compressions (LS 1/gamma < 5, FB 1/gamma < 10^3 by default), by the
   sample min/max and by the paper's alpha-quantiles (eq. 18), with order-statistic confidence intervals
-  (:mod:`spherejam.bands`). ``bands.method`` chooses which edge Tables 3-4 report; a band of fewer than
+  (:mod:`spherejam.workflow.bands`). ``bands.method`` chooses which edge Tables 3-4 report; a band of fewer than
   ``bands.min_packings`` packings is not estimable.
 * Table 4: phi_LT = mean of the LS and FB low edges, phi_RCP = mean of the high edges, phi_GCP = mean of the Table 2
   entries (for sigma = 0 the conventional value 0.65, as in the paper).
@@ -13,8 +13,8 @@
 Every row whose phi_GCP lies below the run's own phi_RCP (Table 4, and the Table 2 cells) is flagged
 (``gcp_below_rcp``): with enough data phi_GCP - phi_RCP ~ 0.01, so it signals too little data, not a result.
 
-Every table carries the paper's value (:mod:`spherejam.paper_reference`), ours - paper, and that difference in units
-of our confidence half-width. The statistics are described in docs/statistics.md.
+Every table carries the paper's value (:mod:`spherejam.workflow.paper_reference`), ours - paper, and that difference
+in units of our confidence half-width. The statistics are described in docs/statistics.md.
 """
 
 from __future__ import annotations
@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..core.atomic import atomic_output
+from ..core.errors import InputError
 from . import paper_reference
-from .atomic import atomic_output
 from .bands import BAND_DEFAULTS, band_edges
 from .dataset import dataset_config
-from .errors import InputError
 from .fits import N_COEFFICIENTS, fit_gcp
 
 #: Table 2 rows: (label, protocol, variable, config key of the number of slowest points).

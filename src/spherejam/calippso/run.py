@@ -103,12 +103,12 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError, OverlapError, SimulationError, require
-from .lp_constraints import constraint_rows, pair_vectors, pairs_in_cutoff, particle_force_sums, row_excess
-from .neighbours import pairs_within
-from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from .runs import History, Progress
-from .validation import LP_SOLVERS
+from ..core.errors import InputError, OverlapError, SimulationError, require
+from ..core.neighbours import pairs_within
+from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.validation import LP_SOLVERS
+from ..engines.driver import History, Progress
+from .constraints import constraint_rows, pair_vectors, pairs_in_cutoff, particle_force_sums, row_excess
 
 #: Default regime thresholds on sqrt(Gamma_prev) - 1 (docs §1.3).
 REGIME_THRESHOLDS = (5e-4, 1e-5)
@@ -520,7 +520,7 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score
     are the predicted vertex, for :func:`solve_active_set` to certify.
     """
-    from .contacts import rattler_mask
+    from ..analysis.contacts import rattler_mask
 
     m = len(pi)
     score = duals * sigma2 * m / np.maximum(slack / sigma2, 1e-300)
@@ -738,7 +738,7 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
 
     Returns ``(contact_mask over pairs, rattler mask, n_contacts among non-rattlers, isostatic, residual)``.
     """
-    from .contacts import rattler_mask
+    from ..analysis.contacts import rattler_mask
 
     contact = duals * sigma2 * n > zero_force
     ci, cj = pi[contact], pj[contact]
@@ -1215,7 +1215,7 @@ def _fingerprint(packing: Packing, parameters: dict[str, Any]) -> str:
 
 
 def _save_state(path, fingerprint, x, dia, history, iteration, sqrt_gamma_prev, pinned, lp_time):
-    from .checkpoint import save_checkpoint
+    from ..core.checkpoint import save_checkpoint
 
     arrays = {"positions": x, "diameters": dia}
     arrays.update({f"history_{k}": v for k, v in history.as_arrays().items()})
@@ -1226,8 +1226,8 @@ def _save_state(path, fingerprint, x, dia, history, iteration, sqrt_gamma_prev, 
 
 
 def _load_state(path, fingerprint):
-    from .checkpoint import load_checkpoint
-    from .errors import PackingFileError
+    from ..core.checkpoint import load_checkpoint
+    from ..core.errors import PackingFileError
 
     arrays, state = load_checkpoint(path, CHECKPOINT_KIND)
     if state.get("fingerprint") != fingerprint:

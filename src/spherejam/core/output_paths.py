@@ -7,15 +7,15 @@ anything, with every file it will write and every file it reads, each under the 
                   inputs={"path": args.path}, also={"--checkpoint": args.checkpoint})
 
 File outputs are parsed with ``type=output_file``. :func:`check_outputs` raises
-:class:`~spherejam.errors.InputError` (the CLI prints one line and exits 2) naming the argument and the path when
+:class:`~spherejam.core.errors.InputError` (the CLI prints one line and exits 2) naming the argument and the path when
 an output
 
 - is empty, an existing directory, or ends with a path separator;
 - is the same file as an input (resolved paths, or ``os.path.samefile`` for hard links) or as another output;
 - lies below an existing non-directory, or its nearest existing folder is not writable (missing folders are
-  created later by :func:`spherejam.atomic.atomic_output`, so they only have to be creatable).
+  created later by :func:`spherejam.core.atomic.atomic_output`, so they only have to be creatable).
 
-Outputs are then written through :func:`spherejam.atomic.atomic_output` (temporary file, then rename), so a failure
+Outputs are then written through :func:`spherejam.core.atomic.atomic_output` (temporary file, then rename), so a failure
 midway leaves the old file (or none) in place. ``also`` holds files a command both reads and writes (a checkpoint):
 they must be writable and must not be an input or an output, but may exist.
 """

@@ -1,6 +1,6 @@
 """Structural measures of a packing: Steinhardt Q6, crystalline fraction, radical Voronoi cells, g(r), pore-size
-entropy; and :func:`analyze`, which gathers them with the contact statistics of :mod:`spherejam.contacts` into flat
-scalars.
+entropy; and :func:`analyze`, which gathers them with the contact statistics of
+:mod:`spherejam.analysis.contacts` into flat scalars.
 
 All lengths use the ACTUAL diameters; volumes and distances are reported in units of the mean diameter ā (so
 every measure is invariant under a uniform rescaling of box and diameters). Q6 and Voronoi are defined for d = 3
@@ -26,11 +26,11 @@ import time
 import numpy as np
 from numba import njit
 
+from ..core import neighbours
+from ..core.errors import InputError, SimulationError, require
+from ..core.packing import Packing, ball_volume
+from ..core.seeding import rng_for
 from . import contacts as _contacts
-from . import neighbours
-from .errors import InputError, SimulationError, require
-from .packing import Packing, ball_volume
-from .seeding import rng_for
 
 #: Neighbour cutoff of the Steinhardt bond network: r_ij <= Q6_CUTOFF * D_ij (docs/algorithms.md §6.4, as in the
 #: reference code).
@@ -490,7 +490,7 @@ def analyze(
     """All structural measures of ``packing`` as flat scalars named as in :data:`VARIABLES`.
 
     ``pressure`` (default: ``metadata["reduced_pressure"]``) sets the contact tolerance rule unless
-    ``contact_tolerance`` is given (see :mod:`spherejam.contacts`); ``seed`` and ``pore_samples`` control the
+    ``contact_tolerance`` is given (see :mod:`spherejam.analysis.contacts`); ``seed`` and ``pore_samples`` control the
     pore-size sampling (None: the reference convergence rule, >= 10^7 points). Q6 and Voronoi measures are NaN
     for d != 3. ``timings``, if given, receives the wall time of each part in seconds.
     """

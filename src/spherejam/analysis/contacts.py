@@ -29,9 +29,9 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numba import njit
 
-from . import neighbours
-from .errors import InputError, require
-from .packing import Packing
+from ..core import neighbours
+from ..core.errors import InputError, require
+from ..core.packing import Packing
 
 #: Largest gap examined by the tolerance scan (relative to D_ij).
 MAX_SCAN_GAP = 1e-3

@@ -1,6 +1,6 @@
 """Event-driven machinery for hard spheres with linearly growing diameters in a periodic cube (d = 3).
 
-This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherejam.lubachevsky_stillinger`); the
+This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherejam.engines.lubachevsky_stillinger`); the
 protocol itself (windows, pressure, thermostat, stopping, checkpoints) lives there. All functions are numba
 ``njit(cache=True)`` kernels over plain arrays.
 
@@ -39,7 +39,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from .neighbours import fold
+from ...core.neighbours import fold
 
 MOVE = 0
 COLLISION = 1

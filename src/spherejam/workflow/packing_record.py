@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import InputError, PackingFileError
+from ..core.errors import InputError, PackingFileError
 
 #: Files of one packing below ``<results>/packings/<key>/`` (the workflow's stages; see experiment.Experiment.path).
 PACKING_FILES = ("poisson.h5", "initial.h5", "jammed.h5", "structure.json", "calippso.json", "calippso.h5")
@@ -141,8 +141,8 @@ def describe(dataset_path, ds, key: str) -> list[str]:
 def mls_history_figure(jammed: str | os.PathLike, title: str = ""):
     """p and phi against the cumulative collisions of the MLS run that made ``jammed`` (a packing file), one
     colour per compression stage (labelled with its rate gamma), equilibration stages in grey."""
+    from ..core.packing_io import read_packing
     from .figures import _plt  # the package's one matplotlib setup
-    from .packing_io import read_packing
 
     _, history = read_packing(jammed, with_history=True)
     needed = ("collisions", "pressure", "phi", "rate", "stage")

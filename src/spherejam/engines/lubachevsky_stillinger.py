@@ -32,15 +32,15 @@ from typing import Any
 
 import numpy as np
 
-from . import event_driven as ed
-from .checkpoint import load_checkpoint, save_checkpoint
-from .errors import InputError, PackingFileError, SimulationError, require
-from .neighbours import closest_pair
-from .packing import Packing, ball_volume
-from .progress import log_fraction
-from .progress import rate as rate_of
-from .runs import History, Progress, RunResult
-from .validation import EVENTS_PER_PARTICLE
+from ..core.checkpoint import load_checkpoint, save_checkpoint
+from ..core.errors import InputError, PackingFileError, SimulationError, require
+from ..core.neighbours import closest_pair
+from ..core.packing import Packing, ball_volume
+from ..core.progress import log_fraction
+from ..core.progress import rate as rate_of
+from ..core.validation import EVENTS_PER_PARTICLE
+from .driver import History, Progress, RunResult
+from .kernels import event_driven as ed
 
 DEFAULT_TEMPERATURE = 0.2
 #: Relative overlap that makes a window audit (or the final audit) fail.

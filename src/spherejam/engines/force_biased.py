@@ -23,7 +23,7 @@ gamma (the contraction rate) is dimensionless and per iteration; the number of i
 ``(rho_out0 - rho_final) / (0.3 ... 0.5 * gamma)``, e.g. ~120 at gamma = 1e-3. It is *not* the LS compression rate.
 
 Neighbours: a Verlet list of all pairs with ``r_ij < rho_out D_ij + skin`` (built from cell lists of
-:mod:`spherejam.neighbours`), rebuilt whenever a sphere has moved more than skin/2 since the last build. Since
+:mod:`spherejam.core.neighbours`), rebuilt whenever a sphere has moved more than skin/2 since the last build. Since
 ``rho_out`` never grows, the list then holds every pair whose outer spheres overlap. Each sphere's list is sorted
 by index, so the force sums (and hence the result) do not depend on when the list was built: a resumed run is
 bitwise identical to an uninterrupted one.
@@ -38,15 +38,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
-from . import neighbours
-from .checkpoint import load_checkpoint, save_checkpoint
-from .errors import PackingFileError, SimulationError, require
-from .neighbours import cell_sort, fold
-from .packing import Packing, ball_volume
-from .progress import rate as per_second
-from .runs import Progress, RunResult
+from ..core import neighbours
+from ..core.checkpoint import load_checkpoint, save_checkpoint
+from ..core.errors import PackingFileError, SimulationError, require
+from ..core.packing import Packing, ball_volume
+from ..core.progress import rate as per_second
+from .driver import Progress, RunResult
+from .kernels import force_biased as kernels
 
 #: Outer spheres start at this multiple of the nominal density (Bezrukov et al. 2002).
 OUTER_DENSITY_RATIO = 1.2
@@ -87,205 +86,6 @@ def _check_rate(rate) -> float:
     return float(rate)
 
 
-# --- numba kernels ----------------------------------------------------------------------------------------------
-
-
-@njit(cache=True, inline="always")
-def _scan_cell(ps, ds, order, begin, end, a, i, shift, wrap, box, rho_out, skin, pairs, count):
-    """Append to ``pairs`` the pairs of sphere a (index i) with the spheres begin..end-1 of one cell, kept if sphere
-    a is the larger one (ties: the lower index); False if ``pairs`` is full."""
-    dim = ps.shape[1]
-    half = 0.5 * box
-    di = ds[a]
-    cap = pairs.shape[1]
-    for b in range(begin, end):
-        dj = ds[b]
-        j = order[b]
-        if dj > di or (dj == di and j <= i):
-            continue
-        r2 = 0.0
-        for q in range(dim):
-            dx = ps[b, q] + shift[q] - ps[a, q]
-            if wrap:
-                dx = fold(dx, box, half)
-            r2 += dx * dx
-        cut = rho_out * 0.5 * (di + dj) + skin
-        if r2 < cut * cut:
-            k = count[0]
-            if k == cap:
-                return False
-            pairs[0, k] = min(i, j)
-            pairs[1, k] = max(i, j)
-            count[0] = k + 1
-    return True
-
-
-@njit(cache=True)
-def _neighbour_cell_shift(coords, offset, m, box, shift):
-    """Index of the cell at ``coords + offset`` (periodic) and the image shift of its spheres."""
-    cn = 0
-    stride = 1
-    for q in range(coords.shape[0]):
-        cq = coords[q] + offset[q]
-        shift[q] = 0.0
-        if cq < 0:
-            cq += m
-            shift[q] = -box
-        elif cq >= m:
-            cq -= m
-            shift[q] = box
-        cn += cq * stride
-        stride *= m
-    return cn
-
-
-@njit(cache=True)
-def _build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
-    """CSR half list (row i holds j > i, ascending) of all pairs with r_ij < rho_out D_ij + skin.
-
-    Each pair is found from its larger sphere, which scans the cells within rho_out D_i + skin. Cells are sized
-    for typical spheres, which scan the 3^d adjacent cells (cell by cell, so the periodic image of a neighbour
-    cell is a known shift); the few larger spheres of a polydisperse packing scan a wider stencil.
-    Returns empty arrays if more than ``capacity`` pairs are found (retry with a larger one).
-    """
-    n, dim = positions.shape
-    side = box / m
-    cell, start, order = cell_sort(positions, box, m)
-    ps = np.empty((n, dim))  # positions and diameters in cell order, for locality
-    ds = np.empty(n)
-    stencil = np.empty(n, dtype=np.int64)  # half-width of each sphere's stencil, in cells
-    for a in range(n):
-        for q in range(dim):
-            ps[a, q] = positions[order[a], q]
-        ds[a] = diameters[order[a]]
-        stencil[a] = int(np.ceil((rho_out * ds[a] + skin) / side))
-    pairs = np.empty((2, capacity), dtype=np.int64)  # appended in scan order: sequential writes
-    count = np.zeros(1, dtype=np.int64)
-    coords = np.empty(dim, dtype=np.int64)
-    offset = np.empty(dim, dtype=np.int64)
-    shift = np.empty(dim)
-    failed = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
-    # spheres with a one-cell stencil, cell pair by cell pair
-    if m >= 3:
-        for c in range(m**dim):
-            rem = c
-            for q in range(dim):
-                coords[q] = rem % m
-                rem //= m
-            for o in range(3**dim):
-                rem = o
-                for q in range(dim):
-                    offset[q] = rem % 3 - 1
-                    rem //= 3
-                cn = _neighbour_cell_shift(coords, offset, m, box, shift)
-                for a in range(start[c], start[c + 1]):
-                    if stencil[a] == 1 and not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a],
-                                                          shift, False, box, rho_out, skin, pairs, count):
-                        return failed
-    # the others, sphere by sphere over a (2w+1)^d stencil; one that wraps onto itself scans every cell once
-    for a in range(n):
-        w = stencil[a]
-        if w == 1 and m >= 3:
-            continue
-        wrap = 2 * w + 1 > m
-        c = cell[order[a]]
-        for q in range(dim):
-            coords[q] = c % m
-            c //= m
-        span = m if wrap else 2 * w + 1
-        for o in range(span**dim):
-            rem = o
-            for q in range(dim):
-                offset[q] = (rem % span - coords[q]) if wrap else (rem % span - w)
-                rem //= span
-            cn = _neighbour_cell_shift(coords, offset, m, box, shift)
-            if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, wrap, box, rho_out,
-                              skin, pairs, count):
-                return failed
-    # CSR by the lower index, each row sorted: the force sums then do not depend on when or how the list was built
-    k = count[0]
-    row = np.zeros(n + 1, dtype=np.int64)
-    for p in range(k):
-        row[pairs[0, p] + 1] += 1
-    for i in range(n):
-        row[i + 1] += row[i]
-    fill = row[:-1].copy()
-    nbr = np.empty(k, dtype=np.int64)
-    for p in range(k):
-        i = pairs[0, p]
-        nbr[fill[i]] = pairs[1, p]
-        fill[i] += 1
-    for i in range(n):
-        for p in range(row[i] + 1, row[i + 1]):
-            v = nbr[p]
-            q = p - 1
-            while q >= row[i] and nbr[q] > v:
-                nbr[q + 1] = nbr[q]
-                q -= 1
-            nbr[q + 1] = v
-    return row, nbr
-
-
-@njit(cache=True)
-def _forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
-    """Bezrukov forces of the pairs whose outer spheres overlap; returns min r_ij / D_ij over the list."""
-    n, dim = positions.shape
-    half = 0.5 * box
-    forces[:, :] = 0.0
-    rho2 = rho_out * rho_out
-    hmin2 = np.inf
-    for i in range(n):
-        di = diameters[i]
-        for p in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr[p]
-            r2 = 0.0
-            for a in range(dim):
-                dx[a] = fold(positions[i, a] - positions[j, a], box, half)
-                r2 += dx[a] * dx[a]
-            dij = 0.5 * (di + diameters[j])
-            h2 = r2 / (dij * dij)
-            hmin2 = min(hmin2, h2)
-            if h2 < rho2 and r2 > 0.0:
-                f = di * diameters[j] * (1.0 - h2 / rho2) / np.sqrt(r2)
-                for a in range(dim):
-                    forces[i, a] += f * dx[a]
-                    forces[j, a] -= f * dx[a]
-    return np.sqrt(hmin2)
-
-
-@njit(cache=True)
-def _pair_ratio(positions, diameters, box, i, j):
-    """r_ij / D_ij, computed with the same operations as in :func:`_forces`."""
-    half = 0.5 * box
-    r2 = 0.0
-    for a in range(positions.shape[1]):
-        dx = fold(positions[i, a] - positions[j, a], box, half)
-        r2 += dx * dx
-    dij = 0.5 * (diameters[i] + diameters[j])
-    return np.sqrt(r2 / (dij * dij))
-
-
-@njit(cache=True)
-def _move(positions, diameters, box, forces, prefactor, drift):
-    """x_i += prefactor / D_i * F_i, wrapped into [0, box); returns the largest drift since the last list build."""
-    n, dim = positions.shape
-    max2 = 0.0
-    for i in range(n):
-        c = prefactor / diameters[i]
-        d2 = 0.0
-        for a in range(dim):
-            step = c * forces[i, a]
-            x = positions[i, a] + step
-            x -= box * np.floor(x / box)  # any step size, not just one box length
-            if x >= box:  # round-off of a tiny negative x
-                x -= box
-            positions[i, a] = x
-            drift[i, a] += step
-            d2 += drift[i, a] * drift[i, a]
-        max2 = max(max2, d2)
-    return np.sqrt(max2)
-
-
 # --- the run ----------------------------------------------------------------------------------------------------
 
 
@@ -313,7 +113,7 @@ class _Neighbours:
         """Rebuild if two spheres may have approached by more than the skin since the last build."""
         if self.start is None or 2.0 * self.max_drift >= self.skin:
             while True:
-                self.start, self.list = _build_verlet(positions, diameters, box, rho_out, self.skin, self.m,
+                self.start, self.list = kernels.build_verlet(positions, diameters, box, rho_out, self.skin, self.m,
                                                       self.capacity)
                 if len(self.start):
                     break
@@ -489,10 +289,10 @@ def run_fb(
     def compute_forces():
         """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
         nb.refresh(positions, nominal, box, rho_out)
-        h = _forces(positions, nominal, box, rho_out, nb.start, nb.list, forces, dx)
+        h = kernels.forces(positions, nominal, box, rho_out, nb.start, nb.list, forces, dx)
         if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
             i, j, _ = neighbours.closest_pair(positions, nominal, box)
-            h = _pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in _forces
+            h = kernels.pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in kernels.forces
         if not math.isfinite(h) or not np.all(np.isfinite(forces)):
             raise SimulationError(f"FB iteration {iteration}: non-finite forces or inner ratio ({h!r})")
         return h
@@ -519,7 +319,7 @@ def run_fb(
         ):
             stopped_early = True
             break
-        nb.max_drift = _move(positions, nominal, box, forces, prefactor * rho_out * rho_out, nb.drift)
+        nb.max_drift = kernels.move(positions, nominal, box, forces, prefactor * rho_out * rho_out, nb.drift)
         rho_in = compute_forces()
         rho_out = _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim)
         iteration += 1

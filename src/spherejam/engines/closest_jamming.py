@@ -31,7 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from .errors import require
+from ..core.errors import require
+from ..core.packing import Packing
+from ..core.validation import check_mls
+from .driver import RunResult
 from .lubachevsky_stillinger import (
     DEFAULT_TEMPERATURE,
     Controller,
@@ -40,9 +43,6 @@ from .lubachevsky_stillinger import (
     drive,
     validate_common,
 )
-from .packing import Packing
-from .runs import RunResult
-from .validation import check_mls
 
 CHECKPOINT_KIND_MLS = "mls"
 #: A stall counts only at p >= this fraction of p_max: lower plateaus are not the precision floor.
@@ -177,8 +177,8 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
         ``max_wall_time`` the cut is deterministic: the same input and seed give the same output on any machine.
     seed, events_per_particle, max_wall_time, checkpoint, checkpoint_interval, progress_interval,
     count_collisions_only, temperature, callback, engine_options :
-        As in :func:`spherejam.lubachevsky_stillinger.run_ls`. A ``max_wall_time`` stop keeps the checkpoint, so a
-        later call with the same checkpoint path continues the search.
+        As in :func:`spherejam.engines.lubachevsky_stillinger.run_ls`. A ``max_wall_time`` stop keeps the
+        checkpoint, so a later call with the same checkpoint path continues the search.
 
     Returns
     -------

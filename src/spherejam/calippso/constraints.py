@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .neighbours import minimum_image, pairs_within
+from ..core.neighbours import minimum_image, pairs_within
 
 
 @njit(cache=True)

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SpherejamError
-from .packing import Packing
+from ..core.errors import SpherejamError
+from ..core.packing import Packing
 
 INSTALL_HINT = ("rendering needs OVITO: pip install 'spherejam[render]' (and on Debian/Ubuntu: "
                 "apt-get install libvulkan1 mesa-vulkan-drivers)")
@@ -136,8 +136,8 @@ IMAGE_FORMATS = ("png", "pdf")
 def write_images(packing: Packing, outputs, size: tuple[int, int] = (800, 800), sigma: float | None = None,
                  title: str | None = None) -> list[Path]:
     """Render once and write the figure to every path in ``outputs`` (format from the suffix: .png or .pdf)."""
-    from .atomic import atomic_output
-    from .errors import InputError
+    from ..core.atomic import atomic_output
+    from ..core.errors import InputError
 
     outputs = [Path(p) for p in outputs]
     for p in outputs:

@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from . import progress
-from .packing import Packing
+from ..core import progress
+from ..core.packing import Packing
 
 log = logging.getLogger("spherejam")
 
@@ -50,7 +50,7 @@ class RunResult:
 
 class Progress:
     """Progress of a run: a log line (to the ``spherejam`` logger) at most every ``interval`` seconds, or, on a
-    terminal, the live status line of :mod:`spherejam.progress` fed with every update's ``fields`` and ``bar``."""
+    terminal, the live status line of :mod:`spherejam.core.progress` fed with every update's ``fields`` and ``bar``."""
 
     def __init__(self, label: str, interval: float = 10.0):
         self.label = label

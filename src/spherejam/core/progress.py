@@ -1,7 +1,7 @@
 """Live progress of long runs: one status line on a terminal, the periodic log lines elsewhere.
 
-The engines report through :class:`spherejam.runs.Progress` only. Each update carries the log message and, for the
-live line, named values (``fields``) and an optional bar (fraction in [0, 1] and its caption). Inside
+The engines report through :class:`spherejam.engines.driver.Progress` only. Each update carries the log message
+and, for the live line, named values (``fields``) and an optional bar (fraction in [0, 1] and its caption). Inside
 :func:`live_status` with a terminal on stderr the values go to a ``rich`` status line redrawn a few times a second
 and the periodic log lines are dropped (the forced ones, such as "done", still print, above the line); without a
 terminal nothing changes (Snakemake and SLURM logs keep their lines); ``--quiet`` disables both.
@@ -104,7 +104,7 @@ def current() -> StatusLine | None:
 @contextlib.contextmanager
 def live_status(enabled: bool = True, stream=None):
     """Show the engines' progress as a live status line while inside, if ``enabled`` and ``stream`` (default
-    stderr) is a terminal; otherwise do nothing, so :class:`spherejam.runs.Progress` keeps its log lines."""
+    stderr) is a terminal; otherwise do nothing, so :class:`spherejam.engines.driver.Progress` keeps its log lines."""
     global _active
     stream = sys.stderr if stream is None else stream
     if not enabled or not _is_terminal(stream) or _active is not None:

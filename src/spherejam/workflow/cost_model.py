@@ -44,7 +44,7 @@ import operator
 import os
 from dataclasses import dataclass
 
-from .errors import InputError, require
+from ..core.errors import InputError, require
 
 #: Stages (rule kinds) with a cost model.
 STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
@@ -271,7 +271,7 @@ def plan(config: dict) -> dict[str, dict[str, float]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m spherejam.cluster_resources CONFIG.yaml [MORE.yaml]``: print the cost of a workflow config."""
+    """``python -m spherejam.workflow.cost_model CONFIG.yaml [MORE.yaml]``: print the cost of a workflow config."""
     import argparse
 
     ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")

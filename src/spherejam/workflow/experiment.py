@@ -12,12 +12,12 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-from collections.abc import Iterator
 
-from .errors import InputError
+from ..core.errors import InputError
 
 PROTOCOLS = ("ls", "fb")
 

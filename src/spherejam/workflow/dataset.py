@@ -20,11 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from .atomic import atomic_output
-from .errors import InputError, PackingFileError
+from ..core.atomic import atomic_output
+from ..core.errors import InputError, PackingFileError
+from ..core.packing_io import FORMAT, dumps
+from ..core.provenance import provenance
 from .experiment import Experiment, GridRun, Run, config_hash
-from .packing_io import FORMAT, dumps
-from .provenance import provenance
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
 VARIABLES: dict[str, tuple[str, str]] = {
@@ -73,8 +73,8 @@ MLS_COMPLETED = ("final_rate", "final_rate_stalled", "jammed")
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
     """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
 
-    The config passes :func:`spherejam.validation.check_config` (every limit and consistency rule) first."""
-    from .validation import check_config
+    The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) first."""
+    from ..core.validation import check_config
 
     check_config(config)
     exp = Experiment(config)
@@ -191,8 +191,8 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
     """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma, with the
     small-argument power-law exponents fitted on the pooled samples."""
-    from .calippso import force_exponent, gap_exponent
-    from .packing_io import read_group
+    from ..calippso.run import force_exponent, gap_exponent
+    from ..core.packing_io import read_group
 
     sigmas = sorted(set(exp.sigmas))
     rows = {k: [] for k in ("force_pdf", "extended_force_pdf", "gap_pdf", "force_exponent", "gap_exponent",
@@ -262,7 +262,8 @@ def _describe(ds, extra: dict[str, tuple[str, str]]) -> None:
 
 
 def _structure_variables() -> dict[str, tuple[str, str]]:
-    from . import calippso, structure
+    from ..analysis import structure
+    from ..calippso import run as calippso
 
     # CALiPPSO's names are prefixed in the dataset; unprefixed they would shadow the generated packing's ``phi``.
     return {
@@ -284,7 +285,7 @@ def build_dataset(manifest_path: str | os.PathLike):
     if not isinstance(manifest, dict) or not isinstance(manifest.get("config"), dict) or "config_hash" not in manifest:
         raise PackingFileError(f"{manifest_path}: not an experiment manifest (needs 'config' and 'config_hash'; "
                                "write one with `spherejam manifest`)")
-    from .validation import check_config
+    from ..core.validation import check_config
 
     try:
         config = check_config(manifest["config"])

@@ -6,7 +6,7 @@ consistency rules a JSON schema cannot express, and ``config/schema.yaml`` carri
 that they agree). The limits are those of the engines (an FB rate must be < 1), those that let a run end (a rate of
 1e-300 never jams) and those of a machine (N spheres must fit in memory).
 
-Every rule raises :class:`~spherejam.errors.InputError` whose one-line message starts with the field path and the
+Every rule raises :class:`~spherejam.core.errors.InputError` whose one-line message starts with the field path and the
 offending element, e.g. ``ls.rates[1]=0.0: must be >= 1e-08``.
 """
 
@@ -199,7 +199,7 @@ def check_config(config: Any) -> dict:
                 for c, gf in enumerate(grid.get("final_rates", [])):
                     names = (f"initial_rates[{a}]", f"decrease_factors[{b}]", f"final_rates[{c}]")
                     check_mls(g0, f, gf, tuple(f"validation_grid.{name}" for name in names))
-    from .experiment import PROTOCOLS, rate_grid
+    from ..workflow.experiment import PROTOCOLS, rate_grid
 
     total = 0
     for protocol in PROTOCOLS:

@@ -10,7 +10,7 @@ import platform
 import subprocess
 from pathlib import Path
 
-from . import __version__
+from .. import __version__
 
 _PACKAGES = ("numpy", "numba", "scipy", "h5py", "xarray", "pandas", "highspy", "freud-analysis", "snakemake")
 

@@ -1,7 +1,7 @@
 """The paper's Figures 2-7, plus structure and contact-force figures, drawn from the results dataset alone.
 
 Each ``fig*`` function takes the dataset and returns a matplotlib Figure; :func:`save_figure` writes PNG and PDF.
-Fig. 1 (a rendered packing) needs OVITO and lives in :mod:`spherejam.render`. Colours mark sigma and so do the
+Fig. 1 (a rendered packing) needs OVITO and lives in :mod:`spherejam.workflow.render`. Colours mark sigma and so do the
 symbols (:data:`SIGMA_MARKERS`), as in the paper.
 """
 
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_output
+from ..core.atomic import atomic_output
+from ..core.errors import InputError
 from .dataset import dataset_config
-from .errors import InputError
 from .tables import FAST_DEFAULTS, TABLE2_ROWS, completed_phi_J, compute_tables
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
@@ -223,7 +223,7 @@ def fig4(ds):
 
 @lru_cache(maxsize=64)
 def _farr_groot(sigma: float) -> float:
-    from .farr_groot import phi_rcp_lognormal
+    from ..analysis.farr_groot import phi_rcp_lognormal
 
     return phi_rcp_lognormal(sigma)
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from ..core.errors import InputError
 
 METHODS = ("minmax", "quantile")
 BAND_DEFAULTS = {"method": "minmax", "alpha": 0.95, "confidence": 0.95, "min_packings": 5}
