@@ -1,22 +1,91 @@
-"""Checkpoints of long runs: the full engine state in one HDF5 file, written atomically.
+"""Checkpoints of long runs, one protocol for every engine: resume if a checkpoint of the same input and parameters
+exists, save the full state every ``interval`` seconds, delete the file when the run is done.
 
-A checkpoint holds named arrays plus JSON-serialisable attributes, tagged with a ``kind`` so that a checkpoint of
-one engine is never resumed by another.
+A checkpoint is one HDF5 file, written atomically: named arrays (the history columns as ``history_<name>``) plus
+JSON-serialisable attributes, tagged with a ``kind`` so that a checkpoint of one engine is never resumed by another,
+and with a fingerprint of the input packing and the parameters so that it is never resumed by a different run.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
+import numbers
 import os
+import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .atomic import atomic_output
-from .errors import PackingFileError
+from .errors import PackingFileError, require
 from .packing_io import dumps
+
+if TYPE_CHECKING:
+    from .packing import Packing
+
+_HISTORY = "history_"
+
+
+def fingerprint(packing: Packing, kind: str, parameters: Mapping[str, Any]) -> str:
+    """SHA-256 of the engine kind, the input packing (positions, diameters, box) and the parameters."""
+    digest = hashlib.sha256()
+    digest.update(kind.encode())
+    digest.update(np.ascontiguousarray(packing.positions, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(packing.diameters, dtype=np.float64).tobytes())
+    digest.update(json.dumps({"box": float(packing.box), **parameters}, sort_keys=True, default=str).encode())
+    return digest.hexdigest()
+
+
+class Checkpoint:
+    """The checkpoint file of one run (``path`` None: no checkpointing, every method is a no-op).
+
+    ``interval`` (s, >= 0; 0 saves after every window) is the time between periodic saves."""
+
+    def __init__(self, path: str | os.PathLike | None, kind: str, fingerprint: str, interval: float):
+        require(isinstance(interval, numbers.Real) and not isinstance(interval, bool) and math.isfinite(interval)
+                and interval >= 0, "checkpoint_interval", interval, "must be a number >= 0 (seconds)")
+        self.path = Path(path) if path is not None else None
+        self.kind = kind
+        self.fingerprint = fingerprint
+        self.interval = float(interval)
+        self._last = time.perf_counter()
+
+    def resume(self) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, np.ndarray]] | None:
+        """(arrays, attributes, history columns) of an existing checkpoint of this run, or None if there is none.
+
+        Raises :class:`PackingFileError` if the file is unreadable, of another engine, or of another input or
+        parameters (it names the file; delete it to start over)."""
+        if self.path is None or not self.path.exists():
+            return None
+        arrays, attrs = load_checkpoint(self.path, self.kind)
+        if attrs.get("fingerprint") != self.fingerprint:
+            raise PackingFileError(f"{self.path}: checkpoint of a different input or parameters; delete it to start "
+                                   "over")
+        history = {k[len(_HISTORY):]: v for k, v in arrays.items() if k.startswith(_HISTORY)}
+        arrays = {k: v for k, v in arrays.items() if not k.startswith(_HISTORY)}
+        return arrays, attrs, history
+
+    def due(self) -> bool:
+        """True when a periodic save is due."""
+        return self.path is not None and time.perf_counter() - self._last >= self.interval
+
+    def save(self, arrays: Mapping[str, np.ndarray], attrs: Mapping[str, Any],
+             history: Mapping[str, np.ndarray] | None = None) -> None:
+        if self.path is None:
+            return
+        out = dict(arrays)
+        out.update({f"{_HISTORY}{k}": v for k, v in (history or {}).items()})
+        save_checkpoint(self.path, self.kind, out, {**attrs, "fingerprint": self.fingerprint})
+        self._last = time.perf_counter()
+
+    def discard(self) -> None:
+        """Delete the file: the run is done and its result written by the caller."""
+        if self.path is not None and self.path.exists():
+            os.remove(self.path)
 
 
 def save_checkpoint(path: str | os.PathLike, kind: str, arrays: Mapping[str, np.ndarray], attrs: Mapping[str, Any]):
