@@ -35,7 +35,9 @@ import time
 
 import numpy as np
 
-from spherejam.calippso.run import MEAN_FIELD_GAMMA, MEAN_FIELD_THETA_E, METHOD_CODES, distributions, run_calippso
+from spherejam.analysis.distributions import MEAN_FIELD_GAMMA, MEAN_FIELD_THETA_E, distributions
+from spherejam.calippso.run import run_calippso
+from spherejam.calippso.solution import METHOD_CODES
 from spherejam.core.packing import Packing
 
 
@@ -88,7 +90,7 @@ def report(label: str, start: Packing, result, cpu: float) -> None:
         f"{names[c]} {int(np.sum(h['method'] == c))} ({h['cpu_time'][h['method'] == c].sum():.2f} s)"
         for c in sorted(set(h["method"].tolist())))
     print(f"== {label}")
-    print(f"   iterations {result.iterations} (converged {result.converged}); LPs (CPU s): {per_method}")
+    print(f"   iterations {result.iterations} (converged {result.completed}); LPs (CPU s): {per_method}")
     print(f"   CPU {cpu:.2f} s (LPs incl. the force LP {result.counters['lp_cpu_time']:.2f} s), wall "
           f"{result.wall_time:.2f} s; methods incl. force LP {result.counters['lp_methods']}, HiGHS solvers "
           f"{result.counters['lp_solvers']}, warm-start attempts {result.counters['warm_attempts']}")
@@ -104,10 +106,10 @@ def report(label: str, start: Packing, result, cpu: float) -> None:
             print(f"   start at p = {p:.3g}: expected phi_J - phi0 ~ d phi / p = {start.dim * start.phi / p:.1e}")
     print("   per LP: sqrt(G)-1, max|s|, rows, CPU s, wall s, method")
     for k in range(result.iterations):
-        print(f"     {k + 1:3d} {h['sqrt_gamma_minus_1'][k]: .3e} {h['max_displacement'][k]:.3e} "
+        print(f"     {k + 1:3d} {h['sqrt_inflation_minus_1'][k]: .3e} {h['max_displacement'][k]:.3e} "
               f"{h['n_constraints'][k]:7d} {h['cpu_time'][k]:7.2f} {h['solve_time'][k]:7.2f} "
               f"{names[int(h['method'][k])]}")
-    if result.converged:
+    if result.completed:
         d = distributions(result)
         print(f"   gaps: gamma = {d['gap_gamma']:.3f} +- {d['gap_gamma_stderr']:.3f} from {int(d['gap_fit_n'])} gaps "
               f"in h in [{d['gap_fit_lo']:g}, {d['gap_fit_hi']:g}] (mean field {MEAN_FIELD_GAMMA})")

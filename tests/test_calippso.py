@@ -10,14 +10,11 @@ import numpy as np
 import pytest
 
 from spherejam.calippso.constraints import constraint_rows, pair_vectors, pairs_in_cutoff
-from spherejam.calippso.run import (
-    cutoff_and_bound,
-    distributions,
-    fit_cumulative_power_law,
-    run_calippso,
-    solve_lp,
-)
-from spherejam.core.errors import InputError, OverlapError, SimulationError
+from spherejam.analysis.distributions import distributions, fit_cumulative_power_law
+from spherejam.calippso.lp import solve_lp
+from spherejam.calippso.run import run_calippso
+from spherejam.calippso.schedule import cutoff_and_bound
+from spherejam.core.errors import InputError, OverlapError, PackingFileError, SimulationError
 from spherejam.core.packing import Packing, ball_volume
 
 
@@ -52,14 +49,14 @@ def fcc_packing(cells: int) -> Packing:
 
 
 def assert_jammed(result, dim):
-    assert result.converged
+    assert result.completed
     assert result.isostatic, (result.n_contacts, result.n_stable)
     assert result.n_contacts == dim * (result.n_stable - 1) + 1
     assert result.force_balance_residual <= 1e-10
     assert result.packing.check(1e-10).ok
     assert result.packing.min_gap() > -1e-12
     assert np.all(result.forces > 0)
-    assert result.history["sqrt_gamma_minus_1"][-1] <= 1e-12
+    assert result.history["sqrt_inflation_minus_1"][-1] <= 1e-12
     assert result.history["max_displacement"][-1] <= 1e-9
 
 
@@ -75,11 +72,11 @@ def test_linearised_rows_are_inside_the_exact_constraint():
     start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, 2)
     assert np.all(np.diff(start) == 2 * dim + 1)
     s = rng.uniform(-0.3, 0.3, size=(m, 2, dim))
-    gamma = rng.uniform(0.5, 2.0, m)
+    inflation = rng.uniform(0.5, 2.0, m)
     for k in range(m):
-        x = np.concatenate([s[k].ravel(), [gamma[k]]])
+        x = np.concatenate([s[k].ravel(), [inflation[k]]])
         lhs = value[start[k]:start[k + 1]] @ x[index[start[k]:start[k + 1]]]
-        exact = np.sum((rij[k] + s[k, 0] - s[k, 1]) ** 2) - gamma[k] * sigma2[k]
+        exact = np.sum((rij[k] + s[k, 0] - s[k, 1]) ** 2) - inflation[k] * sigma2[k]
         if lhs <= rhs[k]:
             assert exact >= -1e-12
         # the linear row misses exactly |s_i - s_j|^2
@@ -118,8 +115,8 @@ def test_cutoff_and_bound_guards(dim):
 def test_fcc_is_jammed_at_once():
     fcc = fcc_packing(3)
     result = run_calippso(fcc)
-    assert result.iterations == 1 and result.converged
-    assert result.history["sqrt_gamma_minus_1"][0] < 1e-12
+    assert result.iterations == 1 and result.completed
+    assert result.history["sqrt_inflation_minus_1"][0] < 1e-12
     assert result.history["max_displacement_all"][0] < 1e-9
     assert result.packing.phi == pytest.approx(math.pi / math.sqrt(18), abs=1e-12)
     assert result.packing.check(1e-10).ok
@@ -152,7 +149,7 @@ def test_random_d3_n256_from_phi_03_jams_isostatic():
 @pytest.mark.parametrize("dim,n,phi0,ratio", [(2, 128, 0.5, 1.4), (4, 128, 0.2, 1.0)])
 def test_other_dimensions_converge(dim, n, phi0, ratio):
     result = run_calippso(rsa_packing(n, phi0, dim, seed=3, size_ratio=ratio))
-    assert result.converged
+    assert result.completed
     assert result.packing.check(1e-10).ok
     assert result.force_balance_residual <= 1e-10
     if dim >= 3:
@@ -181,13 +178,13 @@ def test_infeasible_lp_is_reported():
     rij = np.array([[0.9, 0.0, 0.0]])
     with pytest.raises(SimulationError, match="Infeasible"):
         solve_lp(rij, np.array([1.0]), np.array([0]), np.array([1]), 2, s_bound=1e-3, pinned=1,
-                 gamma_bounds=(1.0, 4.0))
+                 inflation_bounds=(1.0, 4.0))
 
 
 def test_bad_parameters_name_the_field():
     p = fcc_packing(3)
-    with pytest.raises(InputError, match="gamma_tolerance"):
-        run_calippso(p, gamma_tolerance=-1.0)
+    with pytest.raises(InputError, match="inflation_tolerance"):
+        run_calippso(p, inflation_tolerance=-1.0)
     with pytest.raises(InputError, match="s_bound"):
         run_calippso(p, s_bound=2.0)
 
@@ -196,15 +193,28 @@ def test_bad_parameters_name_the_field():
 
 
 def test_checkpoint_resume_reaches_the_same_packing(tmp_path):
+    """A run stopped at max_iterations and resumed from its checkpoint takes the uninterrupted run's path: the same
+    positions, diameters, contacts, forces and per-LP history, bit for bit; another input or parameters are refused."""
     start = rsa_packing(96, 0.35, 3, seed=5)
     ref = run_calippso(start)
     ckpt = tmp_path / "c.h5"
-    part = run_calippso(start, max_iterations=3, checkpoint=ckpt)
-    assert not part.converged and ckpt.exists()
-    done = run_calippso(start, checkpoint=ckpt)
-    assert done.converged and not ckpt.exists()
-    assert done.iterations > 3
-    assert done.phi == pytest.approx(ref.phi, abs=1e-9)
+    # stopped in regime 2 (warm starts, bound escalation): all of the loop state must come back
+    part = run_calippso(start, max_iterations=20, checkpoint=ckpt, checkpoint_interval=0)
+    assert part.stop_reason == "max_iterations" and not part.completed and ckpt.exists()
+    assert part.summary()["converged"] == 0.0 and part.counters["converged"] is False
+    with pytest.raises(PackingFileError, match="different input or parameters"):
+        run_calippso(start, checkpoint=ckpt, zero_force=1e-9)
+    done = run_calippso(start, checkpoint=ckpt, threads=1)
+    assert done.stop_reason == "converged" and done.completed and not ckpt.exists()
+    assert done.summary()["converged"] == 1.0 and done.counters["stop_reason"] == "converged"
+    assert done.iterations == ref.iterations > 20
+    for name in ("positions", "diameters"):
+        np.testing.assert_array_equal(getattr(done.packing, name), getattr(ref.packing, name))
+    np.testing.assert_array_equal(done.pairs, ref.pairs)
+    np.testing.assert_array_equal(done.forces, ref.forces)
+    assert set(done.history) == set(ref.history)
+    for key in set(ref.history) - {"solve_time", "cpu_time"}:
+        np.testing.assert_array_equal(done.history[key], ref.history[key], err_msg=key)
 
 
 def test_cli_calippso(tmp_path, capsys):
@@ -237,7 +247,7 @@ def test_mls_output_is_certified():
 
     mls = cj.find_closest_jamming(poisson_packing(64, 0.0, 2, dim=3), progress_interval=1e9)
     result = run_calippso(mls.packing)
-    assert result.converged and result.isostatic
+    assert result.completed and result.isostatic
     assert abs(result.phi - mls.packing.phi) <= 1e-4
     assert result.force_balance_residual <= 1e-10
 
@@ -249,7 +259,7 @@ def test_warm_started_lp_matches_cold_solve():
     fcc = fcc_packing(3)
     x = np.mod(fcc.positions + rng.uniform(-0.01, 0.01, fcc.positions.shape), fcc.box)
     n, box = fcc.n, fcc.box
-    kw = dict(s_bound=0.05, pinned=0, gamma_bounds=(1.0, 1.2))
+    kw = dict(s_bound=0.05, pinned=0, inflation_bounds=(1.0, 1.2))
 
     def rows(pos, drop=None):
         i, j, _ = pairs_in_cutoff(pos, box, 1.35)
@@ -269,7 +279,7 @@ def test_warm_started_lp_matches_cold_solve():
         cold = solve_lp(r2, s2, i2, j2, n, **kw)
         warm = solve_lp(r2, s2, i2, j2, n, **kw, warm=first.basis)
         assert cold.method == "ipm" and warm.method == "warm"
-        assert warm.gamma == pytest.approx(cold.gamma, abs=1e-12)
+        assert warm.inflation == pytest.approx(cold.inflation, abs=1e-12)
         # KKT of the warm vertex (to the 1e-9 solver tolerance): sum lambda sigma^2 = 1, force balance where no s
         # bound is active
         assert np.sum(warm.duals * s2) == pytest.approx(1.0, abs=1e-8)
@@ -292,7 +302,7 @@ def test_failed_warm_starts_back_off_and_fall_back_to_interior_point():
     normal = run_calippso(start)
     starved = run_calippso(start, solver_options={"simplex_iteration_limit": 1})
     for result in (normal, starved):
-        assert result.converged and result.isostatic
+        assert result.completed and result.isostatic
         assert result.force_balance_residual <= 1e-10
     later = starved.iterations - 1  # LPs after the first, all in regime 2-3 from this start
     assert np.all(starved.history["regime"][1:] > 1)
@@ -330,7 +340,7 @@ def test_hipo_is_available_and_really_runs(tmp_path, ls_jammed_256):
     rij, sigma2, i, j = force_lp(ls_jammed_256)
     for solver, mark in (("hipo", "Hipo: "), ("ipx", "Ipx: IPM")):
         log = tmp_path / f"{solver}.log"
-        sol = solve_lp(rij, sigma2, i, j, 256, s_bound=0.5, pinned=0, gamma_bounds=(-math.inf, math.inf),
+        sol = solve_lp(rij, sigma2, i, j, 256, s_bound=0.5, pinned=0, inflation_bounds=(-math.inf, math.inf),
                        solver=solver, options={"output_flag": True, "log_to_console": False, "log_file": str(log)})
         assert sol.solver == solver and sol.method == "ipm"
         text = log.read_text()
@@ -344,12 +354,12 @@ def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
     """The interior point's near-active rows, certified by the active-set solve, give the vertex crossover gives:
     the same active rows, Gamma and duals (the vertex of a jammed packing's force LP is unique)."""
     rij, sigma2, i, j = force_lp(ls_jammed_256)
-    kw = dict(s_bound=0.5, pinned=0, gamma_bounds=(-math.inf, math.inf), solver=solver)
+    kw = dict(s_bound=0.5, pinned=0, inflation_bounds=(-math.inf, math.inf), solver=solver)
     crossed = solve_lp(rij, sigma2, i, j, 256, **kw)
     vertex = solve_lp(rij, sigma2, i, j, 256, **kw, crossover=False)
     assert crossed.method == "ipm" and vertex.method.startswith("vertex") and vertex.solver == solver
     np.testing.assert_array_equal(vertex.duals > 0, crossed.duals > 0)
-    assert vertex.gamma == pytest.approx(crossed.gamma, abs=1e-12)
+    assert vertex.inflation == pytest.approx(crossed.inflation, abs=1e-12)
     np.testing.assert_allclose(vertex.duals, crossed.duals, rtol=1e-6, atol=1e-12)
     # the certified vertex carries a HiGHS basis: the next LP can warm-start from it
     assert vertex.basis is not None and np.count_nonzero(vertex.basis.rows != 1) == np.count_nonzero(vertex.duals)
@@ -358,7 +368,7 @@ def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
 def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
     """HiPO + certified vertices (the default from N = 4096 on) and IPX + crossover (the default below) certify the
     same jammed state: the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
-    from spherejam.calippso.run import SOLVER_CODES
+    from spherejam.calippso.solution import SOLVER_CODES
 
     old = run_calippso(ls_jammed_256)  # solver="auto" at N = 256: IPX + crossover
     assert old.packing.metadata["parameters"]["solver"] == "ipx"
@@ -381,7 +391,8 @@ def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
 
 
 def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
-    from spherejam.calippso.run import SOLVER_CODES, SOLVERS
+    from spherejam.calippso.lp import SOLVERS
+    from spherejam.calippso.solution import SOLVER_CODES
     from spherejam.cli import build_parser, main
     from spherejam.core.packing_io import read_packing, write_packing
 

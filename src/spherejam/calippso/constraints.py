@@ -1,8 +1,8 @@
 """Sparse rows of the CALiPPSO linear program: linearised non-overlap constraints, built by numba kernels.
 
 For a pair i < j with minimum-image vector r_ij = r_i - r_j and contact distance sigma_ij = (D_i + D_j)/2, the exact
-non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sigma_ij^2. Dropping the |s_i - s_j|^2
->= 0 term gives the linear row
+non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sigma_ij^2 (Gamma: the inflation factor,
+``inflation`` in the code, docs/calippso.md §1.1). Dropping the |s_i - s_j|^2 >= 0 term gives the linear row
 
     -2 r_ij . s_i + 2 r_ij . s_j + sigma_ij^2 Gamma <= |r_ij|^2,
 
@@ -45,7 +45,7 @@ def constraint_rows(rij, sigma2, pi, pj, n):
     index = np.empty(m * nnz_row, dtype=np.int32)
     value = np.empty(m * nnz_row)
     rhs = np.empty(m)
-    gamma_col = n * dim
+    inflation_col = n * dim
     for k in range(m):
         base = k * nnz_row
         start[k] = base
@@ -60,7 +60,7 @@ def constraint_rows(rij, sigma2, pi, pj, n):
             value[base + a] = -2.0 * c
             index[base + dim + a] = j * dim + a
             value[base + dim + a] = 2.0 * c
-        index[base + 2 * dim] = gamma_col
+        index[base + 2 * dim] = inflation_col
         value[base + 2 * dim] = sigma2[k]
         rhs[k] = r2
     start[m] = m * nnz_row
@@ -68,14 +68,14 @@ def constraint_rows(rij, sigma2, pi, pj, n):
 
 
 @njit(cache=True)
-def row_excess(rij, sigma2, pi, pj, s, gamma):
+def row_excess(rij, sigma2, pi, pj, s, inflation):
     """Largest excess over its right-hand side of a linearised row at (s, Gamma): <= 0 when all rows hold."""
     m, dim = rij.shape
     worst = -np.inf
     for k in range(m):
         i = pi[k]
         j = pj[k]
-        lhs = gamma * sigma2[k]
+        lhs = inflation * sigma2[k]
         for a in range(dim):
             c = rij[k, a]
             lhs += 2.0 * c * (s[j, a] - s[i, a]) - c * c

@@ -18,7 +18,8 @@ def register(sub) -> None:
     p.add_argument("path", type=Path, help="input packing file (.h5), overlap-free")
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--max-iterations", type=CALIPPSO_ITERATIONS.arg, default=1000, help="iteration cap (1000)")
-    p.add_argument("--gamma-tolerance", type=finite_float, default=1e-12, help="sqrt(Gamma)-1 tolerance (1e-12)")
+    p.add_argument("--inflation-tolerance", type=finite_float, default=1e-12,
+                   help="tolerance on sqrt(Gamma)-1, Gamma the LP's inflation factor (1e-12)")
     p.add_argument("--displacement-tolerance", type=finite_float, default=1e-9,
                    help="max |s| of non-rattlers, units of the largest diameter (1e-9)")
     p.add_argument("--cutoff", type=finite_float, default=None,
@@ -42,7 +43,8 @@ def register(sub) -> None:
 
 
 def _calippso(args) -> int:
-    from ..calippso.run import contact_arrays, distributions, run_calippso
+    from ..analysis.distributions import contact_arrays, distributions
+    from ..calippso.run import run_calippso
     from ..core.atomic import atomic_output
     from ..core.packing_io import read_packing, write_packing
 
@@ -50,13 +52,13 @@ def _calippso(args) -> int:
                   also={"--checkpoint": args.checkpoint})
     packing = read_packing(args.path)
     result = run_calippso(
-        packing, max_iterations=args.max_iterations, gamma_tolerance=args.gamma_tolerance,
+        packing, max_iterations=args.max_iterations, inflation_tolerance=args.inflation_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
         crossover=args.crossover,
     )
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
-    if result.converged:
+    if result.completed:
         summary.update(distributions(result))
     if args.summary:
         with atomic_output(args.summary, ".json") as tmp:
@@ -66,6 +68,6 @@ def _calippso(args) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(f"{args.output}: phi {result.phi:.10f} (input {result.phi_initial:.10f}), {result.iterations} "
-              f"iterations, converged {result.converged}, contacts {result.n_contacts}, rattlers "
+              f"iterations, converged {result.completed}, contacts {result.n_contacts}, rattlers "
               f"{result.n_rattlers}, isostatic {result.isostatic}, force balance {result.force_balance_residual:.2e}")
-    return 0 if result.converged else EXIT_FAILED
+    return 0 if result.completed else EXIT_FAILED

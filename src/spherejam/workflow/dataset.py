@@ -191,7 +191,7 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
     """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma, with the
     small-argument power-law exponents fitted on the pooled samples."""
-    from ..calippso.run import force_exponent, gap_exponent
+    from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
     sigmas = sorted(set(exp.sigmas))

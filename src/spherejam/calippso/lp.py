@@ -1,0 +1,317 @@
+"""Solving one CALiPPSO linear program with HiGHS: the solver choice, warm starts from the previous LP's basis, and
+the certified vertex that replaces HiGHS's crossover (docs/calippso.md §5).
+
+Every solution HiGHS calls optimal is checked here once more (rows, bounds, force balance) before it is used
+(docs/calippso.md §5.5), and every failure is reported with the LP's iteration and size (docs/calippso.md §6).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import InputError, SimulationError, require
+from ..core.validation import LP_SOLVERS
+from .active_set import interior_point_prediction, solve_active_set
+from .constraints import constraint_rows, particle_force_sums, row_excess
+from .solution import LPBasis, LPSolution
+
+#: The HiGHS solvers an LP can be sent to: HiPO (sparse-direct interior point, needs highspy-extras), IPX
+#: (interior point), dual simplex.
+SOLVERS = LP_SOLVERS
+#: Smallest N that ``solver="auto"`` sends to HiPO with a certified vertex; below it IPX + crossover is faster
+#: (docs/calippso.md §5.1).
+AUTO_HIPO_MIN_N = 4096
+#: Smallest N whose LPs are never warm-started: there a warm start costs more pivots than a cold HiPO solve costs
+#: time (docs/calippso.md §5.3).
+WARM_START_MAX_N = 4096
+#: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: tight
+#: enough that the near-active rows separate clearly from the others (docs/calippso.md §5.2).
+VERTEX_IPM_TOLERANCE = 1e-12
+
+
+def resolve_solver(solver: str, n: int) -> str:
+    """The HiGHS solver of a cold solve for ``solver`` (one of :data:`SOLVERS` or "auto") at N = ``n``: "auto" is
+    HiPO from :data:`AUTO_HIPO_MIN_N` on when highspy-extras provides it, else IPX."""
+    require(solver in (*SOLVERS, "auto"), "solver", solver, f"must be one of auto, {', '.join(SOLVERS)}")
+    if solver == "auto":  # without highspy-extras HiGHS has no HiPO
+        solver = "hipo" if n >= AUTO_HIPO_MIN_N and _highspy_extras() is not None else "ipx"
+    return solver
+
+
+_BLAS_THREADS: list[int] = []
+
+
+def _highspy_extras():
+    """The import spec of highspy-extras (HiPO's libraries), or None if it is not installed."""
+    import importlib.util
+
+    return importlib.util.find_spec("highspy_extras")
+
+
+def _limit_blas_threads(threads: int) -> None:
+    """Give HiPO's BLAS (OpenBLAS linked into highspy-extras) ``threads`` threads.
+
+    HiGHS's ``threads`` option does not reach it, and OpenBLAS otherwise starts one thread per core: a one-core
+    workflow job would then use every core of the node for its dense kernels.
+    """
+    if _BLAS_THREADS == [threads]:
+        return
+    import ctypes
+
+    spec = _highspy_extras()
+    if spec is None or not spec.submodule_search_locations:
+        return
+    for lib in sorted(Path(next(iter(spec.submodule_search_locations))).glob("libhighs_extras*.so*")):
+        try:
+            ctypes.CDLL(str(lib)).openblas_set_num_threads(int(threads))
+        except (OSError, AttributeError):
+            continue
+    _BLAS_THREADS[:] = [threads]
+
+
+def highs_version() -> str:
+    """The HiGHS version (recorded in a run's parameters)."""
+    import highspy
+
+    return highspy.Highs().version()
+
+
+def _highs_options(tolerance: float, extra: dict[str, Any] | None, solver: str = "hipo",
+                   threads: int = 1) -> dict[str, Any]:
+    opts: dict[str, Any] = {
+        "output_flag": False,
+        # named explicitly: with highspy-extras installed "ipm" silently means HiPO, without it IPX
+        "solver": solver,
+        "run_crossover": "on",  # a vertex solution: duals exact and zero off the active set
+        "primal_feasibility_tolerance": tolerance,
+        "dual_feasibility_tolerance": tolerance,
+        "ipm_optimality_tolerance": tolerance,
+        # r_ij components are O(1) in our units, but keep tiny ones rather than treating them as zero
+        "small_matrix_value": 1e-12,
+        # one thread by default: workflow jobs get one core each, and idle scheduler workers would spin on it
+        "threads": int(threads),
+    }
+    opts.update(extra or {})
+    return opts
+
+
+
+_BASIC = 1  # HighsBasisStatus.kBasic
+
+
+def _warm_basis(warm: LPBasis, keys: np.ndarray, highspy):
+    """The previous LP's basis carried over to the rows ``keys``: rows new to the LP start basic (slack).
+
+    Flagged alien when the count of basic variables is wrong (an active row left the cutoff), so HiGHS repairs it
+    instead of rejecting it.
+    """
+    pos = np.minimum(np.searchsorted(warm.keys, keys), warm.keys.size - 1)
+    found = warm.keys[pos] == keys
+    rows = np.where(found, warm.rows[pos], _BASIC)
+    basis = highspy.HighsBasis()
+    members = _status_members(highspy)
+    basis.col_status = members[warm.cols].tolist()
+    basis.row_status = members[rows].tolist()
+    basis.valid = True
+    # alien only when needed: HiGHS's alien-basis repair factorises once more (docs/calippso.md §5.3); a square
+    # basis that is singular is still caught, as rank deficiency, when simplex factorises it
+    basis.alien = bool(np.count_nonzero(rows == _BASIC) + np.count_nonzero(warm.cols == _BASIC) != keys.size)
+    return basis
+
+
+def _vertex_basis(vertex: LPSolution, rattler: np.ndarray, fixed: np.ndarray, pinned: int,
+                  keys: np.ndarray) -> LPBasis:
+    """The HiGHS basis of a certified vertex (for the next LP's warm start): active rows at their upper bound, the
+    displacements of stable particles and Gamma basic, held components, the pinned particle and rattlers at a
+    bound (rattlers at the one they moved towards, as HiGHS's crossover leaves them)."""
+    n, dim = vertex.s.shape
+    cols = np.where(vertex.s.ravel() > 0, 2, 0).astype(np.int8)  # kUpper / kLower
+    free = np.repeat(~rattler, dim) & (fixed.ravel() == 0)
+    free[pinned * dim:(pinned + 1) * dim] = False
+    cols[free] = _BASIC
+    cols = np.append(cols, np.int8(_BASIC))  # Gamma
+    rows = np.where(vertex.duals > 0, 2, _BASIC).astype(np.int8)
+    order = np.argsort(keys)
+    return LPBasis(keys[order], rows[order], cols)
+
+
+def _status_members(highspy):
+    s = highspy.HighsBasisStatus
+    members = np.array([s.kLower, s.kBasic, s.kUpper, s.kZero, s.kNonbasic], dtype=object)
+    assert all(int(m) == k for k, m in enumerate(members))
+    return members
+
+
+def _status_codes(statuses) -> np.ndarray:
+    return np.fromiter((int(v) for v in statuses), dtype=np.int8, count=len(statuses))
+
+
+def _vertex_problem(rij, sigma2, pi, pj, s, inflation, duals, lower, upper, tolerance) -> str | None:
+    """Check a solution HiGHS calls optimal ourselves; a description of what is wrong, or None.
+
+    Primal: every row and bound holds to 10 ``tolerance`` (sigma^2 units). Dual: the pair forces balance (to 1e-6
+    of the mean force) on every displacement component strictly inside its bounds (why: docs/calippso.md §5.5).
+    """
+    excess = float(row_excess(rij, sigma2, pi, pj, s, inflation))
+    if excess > 10.0 * tolerance:
+        return f"a pair row is violated by {excess:.1e}"
+    slack = max(float(np.max(lower - s)), float(np.max(s - upper)))
+    if slack > 10.0 * tolerance:
+        return f"a bound is violated by {slack:.1e}"
+    active = duals > 0
+    if np.any(active):
+        mean_force = float(np.mean(duals[active] * np.sqrt(np.einsum("ij,ij->i", rij[active], rij[active]))))
+        net = particle_force_sums(rij, duals, pi, pj, s.shape[0])
+        inside = (s > lower + tolerance) & (s < upper - tolerance)
+        worst = float(np.max(np.abs(net[inside]), initial=0.0)) / mean_force
+        if worst > 1e-6:
+            return f"forces do not balance (residual {worst:.1e} of the mean force)"
+    return None
+
+
+def warm_pivot_limit(n: int) -> int:
+    """Primal simplex pivots allowed to a warm start before interior point takes over (N particles).
+
+    1000 up to N = 1000, falling as 1/N to 200: about the break-even with one interior-point + crossover solve
+    (docs/calippso.md §5.3); beyond it the cap only bounds the loss.
+    """
+    return max(200, min(1000, 1_000_000 // max(int(n), 1)))
+
+
+def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
+             iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
+             crossover: bool = True) -> LPSolution:
+    """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
+
+    ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
+    ``inflation_bounds`` the (lower, upper) bounds of the inflation factor Gamma. With ``warm`` (the basis of the
+    previous LP) primal simplex starts from it: consecutive LPs share most of their active rows, so it re-optimises
+    in a few pivots where interior point starts from scratch (docs/calippso.md §5.3). Failing that, or without
+    ``warm``, a cold solve by ``solver`` (one of :data:`SOLVERS`, with ``threads`` HiGHS threads). An interior
+    point is followed by HiGHS's crossover when ``crossover``; otherwise its near-active rows predict the vertex,
+    which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2), and crossover is the
+    fallback. On a non-optimal result the LP is solved once more with dual simplex (IPX after a simplex cold solve)
+    before giving up (docs/calippso.md §6).
+    """
+    require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
+    import highspy
+
+    dim = rij.shape[1]
+    m = rij.shape[0]
+    ncol = n * dim + 1
+    start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, n)
+    lp = highspy.HighsLp()
+    lp.num_col_ = ncol
+    lp.num_row_ = m
+    cost = np.zeros(ncol)
+    cost[-1] = -1.0
+    lower = np.full(ncol, -s_bound)
+    upper = np.full(ncol, s_bound)
+    lower[pinned * dim:(pinned + 1) * dim] = 0.0
+    upper[pinned * dim:(pinned + 1) * dim] = 0.0
+    lower[-1], upper[-1] = inflation_bounds
+    inf = highspy.kHighsInf
+    lower[~np.isfinite(lower)] = -inf
+    upper[~np.isfinite(upper)] = inf
+    lp.col_cost_ = cost
+    lp.col_lower_ = lower
+    lp.col_upper_ = upper
+    lp.row_lower_ = np.full(m, -inf)
+    lp.row_upper_ = rhs
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_ = ncol
+    lp.a_matrix_.num_row_ = m
+    lp.a_matrix_.start_ = start
+    lp.a_matrix_.index_ = index
+    lp.a_matrix_.value_ = value
+    keys = pi.astype(np.int64) * n + pj
+
+    opts = _highs_options(tolerance, options, solver, threads)
+    _limit_blas_threads(threads)
+    if solver == "simplex":
+        attempts = [("simplex", opts), ("ipm", {**opts, "solver": "ipx"})]
+    else:
+        attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
+        if not crossover:
+            attempts.insert(0, ("vertex", {**opts, "run_crossover": "off",
+                                           "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}))
+    if warm is not None and warm.cols.size == ncol and warm.keys.size:
+        # primal simplex: the carried-over vertex is nearly primal feasible (the rows barely moved)
+        # no scaling: the rows are O(1) already, and scaling made warm solves slower (docs/calippso.md §5.3). Beyond
+        # warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
+        limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
+        warm_opts = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0,
+                     "simplex_iteration_limit": limit}
+        attempts.insert(0, ("warm", {**opts, **warm_opts, **{k: v for k, v in (options or {}).items()
+                                                             if k in ("simplex_strategy", "simplex_scale_strategy")}}))
+    failures = []
+    t0 = time.perf_counter()
+    for method, o in attempts:
+        h = highspy.Highs()
+        for key, val in o.items():
+            if h.setOptionValue(key, val) != highspy.HighsStatus.kOk:
+                raise InputError(f"solver_options: HiGHS rejected option {key}={val!r}")
+        h.passModel(lp)
+        if method == "warm" and h.setBasis(_warm_basis(warm, keys, highspy)) == highspy.HighsStatus.kError:
+            failures.append("warm: basis rejected")
+            continue
+        if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
+            # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
+            failures.append(f"{method}: HiGHS returned an error before solving (threads={threads})")
+            continue
+        status = h.getModelStatus()
+        if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
+                                                 highspy.HighsModelStatus.kUnbounded):
+            # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
+            sol = h.getSolution()
+            vertex = None
+            if sol.value_valid and sol.dual_valid:
+                slack = rhs - np.asarray(sol.row_value)
+                duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+                s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
+                guess = interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s_ipm,
+                                                  np.asarray(sol.col_dual)[:-1].reshape(n, dim), s_bound)
+                if guess is not None:
+                    guess[2][pinned] = 0
+                    vertex = solve_active_set(rij, sigma2, pi, pj, n, guess[0], guess[1], s_bound=s_bound,
+                                              pinned=pinned, inflation_bounds=inflation_bounds, rattler_s=s_ipm,
+                                              fixed=guess[2])
+            problem = "its near-active rows are not a certified vertex" if vertex is None else _vertex_problem(
+                rij, sigma2, pi, pj, vertex.s, vertex.inflation, vertex.duals, lower[:-1].reshape(n, dim),
+                upper[:-1].reshape(n, dim), tolerance)
+            if problem is None:
+                vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
+                vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
+                vertex.method = "vertex+" + vertex.method.split("+")[1]  # + its pivots
+                return vertex
+            failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
+            continue
+        if status == highspy.HighsModelStatus.kOptimal:
+            sol = h.getSolution()
+            x = np.asarray(sol.col_value)
+            # minimisation with <= rows: HiGHS row duals are <= 0; lambda = -dual >= 0
+            duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+            s = x[:-1].reshape(n, dim)
+            problem = _vertex_problem(rij, sigma2, pi, pj, s, float(x[-1]), duals, lower[:-1].reshape(n, dim),
+                                      upper[:-1].reshape(n, dim), tolerance)
+            if problem is not None:
+                failures.append(f"{method}: optimal status but {problem}")
+                continue
+            basis = None
+            hb = h.getBasis()
+            if hb.valid:
+                order = np.argsort(keys)
+                basis = LPBasis(keys[order], _status_codes(hb.row_status)[order], _status_codes(hb.col_status))
+            return LPSolution(s.copy(), float(x[-1]), duals, time.perf_counter() - t0, method, basis, o["solver"],
+                              "; ".join(failures))
+        failures.append(f"{method}: {h.modelStatusToString(status)}")
+        if method != "warm" and status in (highspy.HighsModelStatus.kInfeasible,
+                                           highspy.HighsModelStatus.kUnbounded):
+            break  # a property of the LP, not of the method
+    raise SimulationError(
+        f"CALiPPSO LP failed at iteration {iteration} ({m} pair rows, {ncol} columns): " + "; ".join(failures)
+    )

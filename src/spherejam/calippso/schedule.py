@@ -1,0 +1,93 @@
+"""The schedule of a CALiPPSO run: per iteration, the cutoff l on pair distances, the per-component displacement bound
+s_bound and the largest inflation factor Gamma_max, chosen from the previous LP's sqrt(Gamma) - 1
+(docs/calippso.md §1.3-§1.6). Lengths are absolute (the caller's units); R is the current largest radius.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.neighbours import pairs_within
+
+#: Default regime thresholds on sqrt(Gamma_prev) - 1 (docs/calippso.md §1.3).
+REGIME_THRESHOLDS = (5e-4, 1e-5)
+#: s_bound of regimes 2 and 3 in units of the largest radius R (docs/calippso.md §1.3).
+REGIME_S_BOUNDS = (0.1, 0.01)
+#: Cutoff of regimes 2 and 3 in units of R (docs/calippso.md §1.3).
+REGIME_CUTOFFS = (2.7, 2.7)
+#: Smallest regime-1 bound sqrt(d) s_bound / R accepted before the cutoff is enlarged instead (docs/calippso.md §1.4).
+MIN_FAR_BOUND = 0.1
+#: Cap (units of R) of the doubled s_bound after a stable particle hit its bound (docs/calippso.md §1.5).
+MAX_ESCALATED_BOUND = 0.1
+
+
+def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, dim: int, box: float,
+                     thresholds=REGIME_THRESHOLDS, s_bound: float | None = None):
+    """The cutoff l, the per-component bound s_bound and Gamma_max of one iteration (absolute lengths).
+
+    ``radius`` is the current largest radius R, ``cutoff0`` the user cutoff l0, ``s_bound`` an optional fixed
+    bound overriding the regimes. Returns ``(l, s_bound, inflation_max, regime)`` (inflation_max: Gamma_max);
+    guarantees s_bound > 0, l <= box/2 and Gamma_max > 1 (docs/calippso.md §1.4), else raises :class:`InputError`.
+    """
+    R = radius
+    rd = math.sqrt(dim)
+    g = sqrt_inflation_prev - 1.0
+    if g > thresholds[0]:
+        regime = 1
+        grow = max(1.5, sqrt_inflation_prev)
+        ell = max(cutoff0, 2.0 * (grow * R + MIN_FAR_BOUND * R))
+        sb = (ell / 2.0 - grow * R) / rd
+    else:
+        regime = 2 if g > thresholds[1] else 3
+        frac = REGIME_S_BOUNDS[regime - 2]
+        sb = frac * R
+        ell = min(REGIME_CUTOFFS[regime - 2] * R, cutoff0)
+        # keep sqrt(Gamma_max) >= 1.1 (l0 fixed while R grows)
+        ell = max(ell, 2.2 * R + 2.0 * rd * sb)
+    if s_bound is not None:
+        sb = s_bound
+        ell = max(ell, 2.2 * R + 2.0 * rd * sb)
+    if ell > box / 2.0:
+        ell = box / 2.0
+        sb = min(sb, (ell - 2.0 * R * (1.0 + 1e-3)) / (2.0 * rd))
+        if sb <= 1e-6 * R:
+            raise InputError(
+                f"box={box!r}: too small for CALiPPSO (cutoff must stay below L/2 = {box / 2:.6g} while exceeding "
+                f"the contact distance {2 * R:.6g}); use more particles"
+            )
+    inflation_max = ((ell - 2.0 * rd * sb) / (2.0 * R)) ** 2
+    return ell, sb, inflation_max, regime
+
+
+def nearest_gap_median(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.5) -> float:
+    """Median over particles of the nearest-neighbour gap h = r/sigma - 1 (capped at scale - 1): the first
+    iteration's estimate of sqrt(Gamma_prev) - 1 (docs/calippso.md §1.6)."""
+    i, j, r = pairs_within(positions, diameters, box, scale)
+    h = r / (0.5 * (diameters[i] + diameters[j])) - 1.0
+    best = np.full(len(positions), scale - 1.0)
+    np.minimum.at(best, i, h)
+    np.minimum.at(best, j, h)
+    return float(np.median(best))
+
+
+def step_limits(sqrt_inflation_prev: float, radius: float, cutoff0: float, dim: int, box: float, thresholds,
+                fixed_s_bound: float | None, prev_s_bound: float, bound_hit: bool):
+    """:func:`cutoff_and_bound` of one iteration, with the bound adapted to the previous LP (docs/calippso.md §1.5).
+
+    ``fixed_s_bound`` is the user's fixed bound (absolute, None: the regimes), ``prev_s_bound`` the previous LP's
+    bound (0 before the first LP) and ``bound_hit`` whether a stable particle ended that LP at it. Without a fixed
+    bound, a hit doubles the previous bound (up to :data:`MAX_ESCALATED_BOUND` R), no hit halves it; the result is
+    used while it exceeds the regime's own bound.
+    """
+    R = radius
+    if fixed_s_bound is None and prev_s_bound > 0:
+        # a stable particle stopped by its bound means the regime's bound is too tight for this packing:
+        # double it (up to 0.1 R); once no bound stops anyone, relax back towards the regime's value
+        regime_sb = cutoff_and_bound(sqrt_inflation_prev, R, cutoff0, dim, box, thresholds)[1]
+        grown = min(2.0 * prev_s_bound, MAX_ESCALATED_BOUND * R) if bound_hit else 0.5 * prev_s_bound
+        if grown > regime_sb:
+            fixed_s_bound = grown
+    return cutoff_and_bound(sqrt_inflation_prev, R, cutoff0, dim, box, thresholds, fixed_s_bound)
