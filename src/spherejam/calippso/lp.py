@@ -25,8 +25,8 @@ SOLVERS = LP_SOLVERS
 #: Smallest N that ``solver="auto"`` sends to HiPO with a certified vertex; below it IPX + crossover is faster
 #: (docs/calippso.md §5.1).
 AUTO_HIPO_MIN_N = 4096
-#: Smallest N whose LPs are never warm-started: there a warm start costs more pivots than a cold HiPO solve costs
-#: time (docs/calippso.md §5.3).
+#: Smallest N whose LPs are never warm-started: there a warm start needs so many pivots that a cold HiPO solve is
+#: cheaper (docs/calippso.md §5.3).
 WARM_START_MAX_N = 4096
 #: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: tight
 #: enough that the near-active rows separate clearly from the others (docs/calippso.md §5.2).
