@@ -1,9 +1,9 @@
 """Force and gap distributions of a certified (CALiPPSO-jammed) packing and the power-law fits of their small-argument
 tails (docs/calippso.md §4).
 
-Two exponents are fitted, each of a different power law: the gap exponent gamma of g(h) ~ h^-gamma (h = r/sigma - 1
-of non-contacting near neighbours; not the CALiPPSO inflation factor Gamma, nor the LS compression rate) and the force
-exponent theta of P(f) ~ f^theta (f in units of the mean contact force).
+Two exponents are fitted: the gap exponent gamma of g(h) ~ h^-gamma (h = r/sigma - 1 of non-contacting near
+neighbours; not the CALiPPSO inflation factor Gamma, nor the LS compression rate) and the force exponent theta of
+P(f) ~ f^theta (f in units of the mean contact force).
 """
 
 from __future__ import annotations
@@ -74,6 +74,8 @@ def fit_cumulative_power_law(values: np.ndarray, lo: float, hi: float) -> tuple[
 
 def gap_exponent(gaps: np.ndarray, lo: float = 1e-8, hi: float = 1e-2) -> PowerLawFit:
     """Fit g(h) ~ h^-gamma at small h: the cumulative count of gaps below h grows as h^(1-gamma) on [lo, hi].
+
+    gamma is the gap exponent (``exponent`` of the result), not CALiPPSO's inflation factor Gamma.
 
     Default range: h from 1e-8 (below, gaps are not resolved by a 1e-9 displacement tolerance) to 1e-2 (above,
     the distribution leaves the power law). Compare with the mean-field gamma = 0.41269.
