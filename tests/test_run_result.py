@@ -58,6 +58,9 @@ def test_summary_is_refused_for_other_files_and_broken_counters():
     broken = {k: v for k, v in OLD_LS.items() if k != "moves"}
     with pytest.raises(PackingFileError, match="x.h5: unreadable run summary.*moves"):
         stats_from_metadata({"algorithm": "ls", "counters": broken}, "x.h5")
+    with pytest.raises(PackingFileError, match="x.h5: unreadable run summary.*windows"):
+        stats_from_metadata({"algorithm": "mls", "counters": {k: v for k, v in OLD_MLS.items() if k != "windows"}},
+                            "x.h5")
     with pytest.raises(PackingFileError, match="stop_reason"):
         stats_from_metadata({"algorithm": "ls", "counters": {**OLD_LS, "stop_reason": "tired"}}, "x.h5")
 

@@ -132,9 +132,9 @@ def stats_from_metadata(metadata: Mapping[str, Any], where: str = "packing") -> 
     if algorithm not in EXTRAS or not isinstance(counters, Mapping):
         raise PackingFileError(f"{where}: no run summary of an LS, MLS or FB run (algorithm {algorithm!r})")
     c = dict(counters)
-    if "completed" not in c:  # written before the typed result
-        c = _from_old(algorithm, c, metadata.get("parameters") or {})
     try:
+        if "completed" not in c:  # written before the typed result
+            c = _from_old(algorithm, c, metadata.get("parameters") or {})
         extras_type = EXTRAS[algorithm]
         extras = extras_type(**{f.name: c[f.name] for f in dataclasses.fields(extras_type)})
         return RunStats(**{k: c[k] for k in _COMMON}, extras=extras)
@@ -146,16 +146,16 @@ def _from_old(algorithm: str, c: dict[str, Any], parameters: Mapping[str, Any]) 
     """Old counters -> the current keys. LS/MLS: ``windows`` -> steps (MLS files from before the stall rule have
     no stalled stages); FB: ``iterations`` -> steps, ``finished`` -> stop_reason, ``phi_inner`` -> phi_final."""
     if algorithm == "fb":
-        if c.get("finished"):
+        if c["finished"]:
             reason = "converged"
         else:
             cap = parameters.get("max_iterations")
-            reason = "max_iterations" if cap is not None and c.get("iterations", -1) >= cap else "max_wall_time"
-        c.update(stop_reason=reason, steps=c.get("iterations"), collisions=None, phi_final=c.get("phi_inner"),
+            reason = "max_iterations" if cap is not None and c["iterations"] >= cap else "max_wall_time"
+        c.update(stop_reason=reason, steps=c["iterations"], collisions=None, phi_final=c["phi_inner"],
                  phi_initial=None)
     else:
-        c["steps"] = c.get("windows")
+        c["steps"] = c["windows"]
         if algorithm == "mls":
             c.setdefault("stalled_stages", 0)
-    c["completed"] = is_completed(c.get("stop_reason"))
+    c["completed"] = is_completed(c["stop_reason"])
     return c

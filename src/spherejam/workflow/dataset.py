@@ -76,7 +76,7 @@ def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
     The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) and makes
     an :class:`Experiment` (the design's own checks) first."""
     check_config(config)
-    Experiment(config)
+    Experiment(config)  # its constructor checks the design (the sigmas of the extra rates and of the grid)
     manifest = {"config": config, "config_hash": config_hash(config), "provenance": provenance()}
     with atomic_output(path, ".json") as tmp:
         Path(tmp).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
