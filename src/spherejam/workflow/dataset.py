@@ -99,7 +99,6 @@ def _attrs(path: Path) -> dict[str, Any]:
     out = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in a.items()}
     for key in ("parameters", "counters", "metadata"):
         out[key] = json.loads(out.get(key, "{}"))
-    out["_path"] = str(path)
     return out
 
 
@@ -111,15 +110,16 @@ def _num(value) -> float:
     return x
 
 
-def _stats(a: dict[str, Any], algorithms: tuple[str, ...]) -> RunStats:
-    where = a["_path"]
+def _stats(path: Path, a: dict[str, Any], algorithms: tuple[str, ...]) -> RunStats:
+    """The run summary of the packing file at ``path`` (attributes ``a``), made by one of ``algorithms``."""
     if a.get("algorithm") not in algorithms:
-        raise PackingFileError(f"{where}: made by {a.get('algorithm')!r}, expected {' or '.join(algorithms)}")
-    return stats_from_metadata(a, where)
+        raise PackingFileError(f"{path}: made by {a.get('algorithm')!r}, expected {' or '.join(algorithms)}")
+    return stats_from_metadata(a, str(path))
 
 
-def _generation_scalars(a: dict[str, Any]) -> dict[str, float]:
-    c = _stats(a, ("ls", "fb"))
+def _generation_scalars(path: Path) -> dict[str, float]:
+    a = _attrs(path)
+    c = _stats(path, a, ("ls", "fb"))
     return {
         "phi": _num(a.get("phi")),
         "pressure": _num(a.get("reduced_pressure")),
@@ -129,8 +129,9 @@ def _generation_scalars(a: dict[str, Any]) -> dict[str, float]:
     }
 
 
-def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
-    c = _stats(a, ("mls",))
+def _mls_scalars(path: Path, prefix: str = "") -> dict[str, float]:
+    a = _attrs(path)
+    c = _stats(path, a, ("mls",))
     p = prefix or "mls_"
     out = {
         f"{p}collisions": _num(c.collisions),
@@ -163,8 +164,8 @@ def collect_runs(exp: Experiment) -> tuple[list[Run], list[dict[str, float]]]:
     rows = []
     runs = exp.runs()
     for run in runs:
-        row = _generation_scalars(_attrs(exp.path(run, "initial")))
-        row.update(_mls_scalars(_attrs(exp.path(run, "jammed"))))
+        row = _generation_scalars(exp.path(run, "initial"))
+        row.update(_mls_scalars(exp.path(run, "jammed")))
         if exp.config.get("analysis", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "structure"), ""))
         if exp.config.get("calippso", {}).get("enabled", True):
@@ -177,8 +178,7 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
     rows = []
     runs = exp.grid_runs()
     for g in runs:
-        a = _attrs(exp.grid_path(g))
-        row = _mls_scalars(a, prefix="grid_")
+        row = _mls_scalars(exp.grid_path(g), prefix="grid_")
         row["grid_phi"] = _num(_attrs(exp.path(g.source, "initial")).get("phi"))
         rows.append(row)
     return runs, rows
