@@ -58,10 +58,10 @@ def main() -> None:
                 res = run_fb(start, args.rate, progress_interval=1e9)
                 best = min(best, time.perf_counter() - t)
                 cpu = min(cpu, time.process_time() - c0)
-            c = res.counters
+            c = res.stats.as_dict()
             phis.append(res.packing.phi)
             walls.append(best)
-            print(f"{n:>6} {sigma:>5.2f} {seed:>4} {res.packing.phi:8.5f} {c['iterations']:>5} "
+            print(f"{n:>6} {sigma:>5.2f} {seed:>4} {res.packing.phi:8.5f} {c['steps']:>5} "
                   f"{c['neighbour_rebuilds']:>8} {best:7.3f} {cpu:6.3f}")
         ref = REFERENCE.get((n, sigma))
         line = f"  N={n} sigma={sigma}: phi mean {np.mean(phis):.5f} (min {min(phis):.5f}, max {max(phis):.5f})"

@@ -38,7 +38,7 @@ def bench_case(n: int, sigma: float, rate: float = RATE) -> dict:
     r = run_ls(start, rate, seed=3, progress_interval=1e9)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - cpu0
-    c = r.counters
+    c = r.stats.as_dict()
     return {"n": n, "sigma": sigma, "phi": r.packing.phi, "collisions": c["collisions"], "events": c["events"],
             "wall": wall, "cpu": cpu, "rate": c["collisions"] / wall}
 
@@ -69,7 +69,7 @@ def peer(n: int, rate: float) -> None:
     t0, c0 = time.perf_counter(), time.process_time()
     ours = run_ls(poisson_packing(n, 0.0, seed=1), rate, seed=1, progress_interval=1e9)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    coll = ours.counters["collisions"]
+    coll = ours.stats.collisions
     print(f"peer  N={n} Poisson -> p=1e12, gamma={rate:g} (spheropack Gamma={gamma_dimless:.4g}):")
     print(f"  spheropack: phi={sp_phi:.5f} collisions={sp_coll:,.0f} wall={sp_wall:.1f}s cpu={sp_cpu:.1f}s "
           f"-> {sp_coll / sp_wall:,.0f}/s wall, {sp_coll / sp_cpu:,.0f}/s cpu")

@@ -38,14 +38,14 @@ def main() -> None:
             t0 = time.perf_counter()
             r = find_closest_jamming(start, seed=1, max_wall_time=args.max_wall_time, progress_interval=60.0)
             wall = time.perf_counter() - t0
-            c = r.counters
-            line = (f"MLS N={n:>6} sigma={sigma:.1f}: phi_start={start.phi:.5f} phi_J={c['phi_J']:.5f} "
-                    f"stages={c['stages']} stop={c['stop_reason']} collisions={c['collisions']:,} "
-                    f"({c['collisions'] / n:,.0f}/particle) wall={wall:.1f}s = {wall / 60:.1f} min "
-                    f"({c['collisions'] / wall / 1e6:.3f} M collisions/s)")
-            if c["stop_reason"] == "max_wall_time":
+            c = r.stats
+            line = (f"MLS N={n:>6} sigma={sigma:.1f}: phi_start={start.phi:.5f} phi_J={c.phi_final:.5f} "
+                    f"stages={c.extras.stages} stop={c.stop_reason} collisions={c.collisions:,} "
+                    f"({c.collisions / n:,.0f}/particle) wall={wall:.1f}s = {wall / 60:.1f} min "
+                    f"({c.collisions / wall / 1e6:.3f} M collisions/s)")
+            if c.stop_reason == "max_wall_time":
                 cpp = args.collisions_per_particle or mls_collisions_per_particle(n=n)
-                est = cpp * n / (c["collisions"] / wall)
+                est = cpp * n / (c.collisions / wall)
                 line += (f"  [CAPPED; EXTRAPOLATED total ~{est / 60:.0f} min at {cpp:,.0f} collisions/particle]")
             print(line, flush=True)
 

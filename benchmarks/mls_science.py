@@ -65,14 +65,14 @@ def one(n: int, sigma: float, seed: int, rate: float, checkpoint_dir: Path | Non
     auto = analyze_contacts(mls.packing).coordination
     fixed = analyze_contacts(mls.packing, contact_tolerance=1e-7).coordination
     crystalline, largest = crystalline_fraction(mls.packing)
-    c = mls.counters
+    c = mls.stats
     return {
         "n": n, "sigma": sigma, "seed": seed, "ls_rate": rate, "phi_ls": ls.packing.phi,
-        "ls_collisions": ls.counters["collisions"], "ls_wall": t1 - t0,
-        "phi_J": c["phi_J"], "stages": c["stages"], "stalled_stages": c["stalled_stages"], "stop": c["stop_reason"],
-        "mls_collisions": c["collisions"],
-        "mls_wall": c["wall_time"], "mls_wall_this_run": t2 - t1, "mls_cpu_this_run": mls_cpu,
-        "resumed": c["resumed"], "pressure": mls.packing.metadata["reduced_pressure"],
+        "ls_collisions": ls.stats.collisions, "ls_wall": t1 - t0,
+        "phi_J": c.phi_final, "stages": c.extras.stages, "stalled_stages": c.extras.stalled_stages,
+        "stop": c.stop_reason, "mls_collisions": c.collisions,
+        "mls_wall": c.wall_time, "mls_wall_this_run": t2 - t1, "mls_cpu_this_run": mls_cpu,
+        "resumed": c.resumed, "pressure": mls.packing.metadata["reduced_pressure"],
         "z_auto": auto.z_nonrattler, "tol_auto": auto.contact_tolerance, "rattlers_auto": auto.rattler_fraction,
         "excess_auto": auto.isostatic_excess, "z_1e-7": fixed.z_nonrattler, "rattlers_1e-7": fixed.rattler_fraction,
         "crystalline": crystalline, "largest_crystal": largest,

@@ -12,6 +12,9 @@ from spherejam.core.errors import InputError
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import MLSController, find_closest_jamming
 from spherejam.engines.lubachevsky_stillinger import WindowStats, run_ls
+from spherejam.engines.result import LSCounts, stats_from_metadata
+
+NO_EVENTS = LSCounts(events=0, skin_events=0, moves=0, null_collisions=0, list_rebuilds=0)
 
 QUICK = {"final_rate": 1e-2, "decrease_factor": 4.0, "progress_interval": 1e9}
 
@@ -28,7 +31,7 @@ def _check_state_machine(result, initial_rate, factor, final_rate, p_max=1e12, m
         if rate[w] > 0:
             assert rate[w] == pytest.approx(initial_rate / factor**k, rel=1e-12)
             if p[w] >= p_max and rate[w] <= final_rate:
-                assert last and result.counters["stop_reason"] == "final_rate"
+                assert last and result.stats.stop_reason == "final_rate"
                 break
             assert not last
             if p[w] >= p_max:  # jam reached: equilibrate at zero rate
@@ -45,16 +48,16 @@ def _check_state_machine(result, initial_rate, factor, final_rate, p_max=1e12, m
             else:
                 count += 1
                 if count >= max_eq:
-                    assert last and result.counters["stop_reason"] == "jammed"
+                    assert last and result.stats.stop_reason == "jammed"
                     break
                 assert not last and rate[w + 1] == 0 and stage[w + 1] == stage[w]
-    c = result.counters
+    c = result.stats
     assert p[-1] >= p_max
-    assert c["stalled_stages"] == 0  # small N: the double-precision floor is far above p_max
-    assert c["stages"] == stage[-1] + 1
-    assert c["rate_decreases"] == k
-    assert c["collisions"] == h["collisions"].sum()
-    assert c["windows"] == n
+    assert c.extras.stalled_stages == 0  # small N: the double-precision floor is far above p_max
+    assert c.extras.stages == stage[-1] + 1
+    assert c.extras.rate_decreases == k
+    assert c.collisions == h["collisions"].sum()
+    assert c.steps == n
 
 
 def _assert_jammed_result(result, start):
@@ -63,11 +66,12 @@ def _assert_jammed_result(result, start):
     assert out.min_gap() < 1e-9
     assert out.metadata["algorithm"] == "mls"
     assert out.metadata["reduced_pressure"] >= 1e12
-    c = result.counters
-    assert c["phi_J"] == pytest.approx(out.phi, rel=1e-12)
-    assert c["phi_initial"] == pytest.approx(start.scaled_to_contact().phi, rel=1e-9)
-    assert c["phi_J"] >= c["phi_initial"] - 1e-12
-    assert 0.58 < c["phi_J"] < 0.68
+    c = result.stats
+    assert c.completed and c.stop_reason in ("final_rate", "jammed")
+    assert c.phi_final == pytest.approx(out.phi, rel=1e-12)  # phi_J
+    assert c.phi_initial == pytest.approx(start.scaled_to_contact().phi, rel=1e-9)
+    assert c.phi_final >= c.phi_initial - 1e-12
+    assert 0.58 < c.phi_final < 0.68
 
 
 def test_mls_from_poisson_start():
@@ -75,7 +79,7 @@ def test_mls_from_poisson_start():
     result = find_closest_jamming(start, seed=3, **QUICK)
     _assert_jammed_result(result, start)
     _check_state_machine(result, 10.0, 4.0, 1e-2)
-    assert result.counters["stages"] >= 5
+    assert result.stats.extras.stages >= 5
 
 
 def test_mls_from_ls_start_polydisperse():
@@ -106,9 +110,9 @@ def test_paper_parameters_on_small_packing_and_jammed_input_barely_moves(paper_m
     start, first = paper_mls_50
     _assert_jammed_result(first, start)
     _check_state_machine(first, 10.0, 2.0, 1e-4)
-    assert first.counters["final_rate_reached"] <= 1e-4 or first.counters["stop_reason"] == "jammed"
+    assert first.stats.extras.final_rate_reached <= 1e-4 or first.stats.stop_reason == "jammed"
     again = find_closest_jamming(first.packing, seed=2, progress_interval=1e9)
-    assert abs(again.counters["phi_J"] - first.counters["phi_J"]) < 1e-4
+    assert abs(again.stats.phi_final - first.stats.phi_final) < 1e-4
     assert again.packing.check(1e-10).ok
 
 
@@ -116,13 +120,13 @@ def test_rule_b_stops_after_max_equilibration_windows(paper_mls_50):
     jammed = paper_mls_50[1].packing
     result = find_closest_jamming(jammed, seed=7, max_equilibration_windows=3, progress_interval=1e9)
     _check_state_machine(result, 10.0, 2.0, 1e-4, max_eq=3)
-    assert abs(result.counters["phi_J"] - jammed.phi) < 1e-4
+    assert abs(result.stats.phi_final - jammed.phi) < 1e-4
 
 
 def test_checkpoint_resume_of_stages_is_identical(tmp_path):
     start = poisson_packing(80, 0.0, seed=6)
     reference = find_closest_jamming(start, seed=2, **QUICK)
-    assert reference.counters["stages"] > 3
+    assert reference.stats.extras.stages > 3
     ckpt = tmp_path / "mls.h5"
 
     class Killed(Exception):
@@ -136,11 +140,11 @@ def test_checkpoint_resume_of_stages_is_identical(tmp_path):
         find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, callback=kill, **QUICK)
     assert ckpt.exists()
     resumed = find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, **QUICK)
-    assert resumed.counters["resumed"] is True
+    assert resumed.stats.resumed is True
     assert not ckpt.exists()
     assert np.array_equal(resumed.packing.positions, reference.packing.positions)
     assert np.array_equal(resumed.history["stage"], reference.history["stage"])
-    assert resumed.counters["phi_J"] == reference.counters["phi_J"]
+    assert resumed.stats.phi_final == reference.stats.phi_final
 
 
 def test_deterministic():
@@ -148,7 +152,7 @@ def test_deterministic():
     a = find_closest_jamming(start, seed=1, **QUICK)
     b = find_closest_jamming(start, seed=1, **QUICK)
     assert np.array_equal(a.packing.positions, b.packing.positions)
-    assert a.counters["collisions"] == b.counters["collisions"]
+    assert a.stats.collisions == b.stats.collisions
 
 
 @pytest.mark.parametrize(
@@ -177,8 +181,8 @@ def test_max_collisions_cut_is_deterministic_and_marked():
     start = poisson_packing(60, 0.1, seed=9)
     a = find_closest_jamming(start, seed=1, max_collisions=5000, **QUICK)
     b = find_closest_jamming(start, seed=1, max_collisions=5000, **QUICK)
-    assert a.counters["stop_reason"] == "max_collisions"
-    assert 5000 <= a.counters["collisions"] < 5000 + 40 * start.n  # cut at the first window end past the cap
+    assert a.stats.stop_reason == "max_collisions"
+    assert 5000 <= a.stats.collisions < 5000 + 40 * start.n  # cut at the first window end past the cap
     assert np.array_equal(a.packing.positions, b.packing.positions)
     assert a.packing.check().n_overlaps == 0
 
@@ -195,12 +199,13 @@ def test_cli_mls(tmp_path):
     assert main(argv) == 0
     packing, history = read_packing(out, with_history=True)
     assert packing.metadata["algorithm"] == "mls"
-    assert packing.metadata["counters"]["phi_J"] == pytest.approx(packing.phi)
+    assert packing.metadata["counters"]["phi_final"] == pytest.approx(packing.phi)
     assert "stage" in history
     assert main(["mls", str(src), "-o", str(out), "--decrease-factor", "0.5"]) == 2
     assert main(["mls", str(src), "-o", str(out), "--max-collisions-per-particle", "-1"]) == 2
     assert main(argv + ["--max-collisions-per-particle", "10"]) == 0
-    assert read_packing(out).metadata["counters"]["stop_reason"] == "max_collisions"
+    stats = stats_from_metadata(read_packing(out).metadata)
+    assert stats.stop_reason == "max_collisions" and not stats.completed
 
 
 def _window(p: float) -> WindowStats:
@@ -228,7 +233,7 @@ def test_stall_rule_ends_a_stage_whose_pressure_is_stuck_below_p_max():
     assert reason is None
     assert [rate for rate, _ in trace] == [10.0] * 23 + [0.0]
     assert c.stalled_stages == 1 and c.stage == 1 and c.stall_count == 0
-    assert isinstance(c.counters()["stalled_stages"], int)  # JSON-safe for checkpoints
+    assert isinstance(c.extras(NO_EVENTS).stalled_stages, int)  # JSON-safe for checkpoints
     # equilibration at p < p_max: compress again at gamma_0 / f
     reason, trace = _feed(c, [6.7e11])
     assert reason is None and trace[-1] == (5.0, 2)
@@ -236,7 +241,7 @@ def test_stall_rule_ends_a_stage_whose_pressure_is_stuck_below_p_max():
     c = MLSController(10.0, 2.0, 20.0, 1e12, 50, stall_windows=5)
     reason, trace = _feed(c, [7e11] * 10)
     assert reason == "final_rate_stalled" and len(trace) == 6
-    assert c.counters()["stalled_stages"] == 1
+    assert c.extras(NO_EVENTS).stalled_stages == 1
 
 
 @pytest.mark.parametrize(

@@ -102,18 +102,19 @@ def test_finished_packing_is_overlap_free_and_jammed_near_phi_nominal(sigma):
     report = p.check(1e-10)
     assert report.ok and report.worst_overlap == pytest.approx(0.0, abs=1e-12)  # closest pair touches
     assert p.closest_pair()[2] == pytest.approx(1.0, abs=1e-12)
-    c = res.counters
-    assert c["finished"] and c["rho_outer"] <= c["rho_inner"]
-    assert p.phi == pytest.approx(c["phi_inner"], rel=1e-12)
+    c = res.stats
+    assert c.stop_reason == "converged" and c.completed and c.extras.rho_outer <= c.extras.rho_inner
+    assert p.phi == pytest.approx(c.phi_final, rel=1e-12)
+    assert c.collisions is None and c.phi_initial == pytest.approx(h0 := res.history["phi_inner"][0]) and h0 < 0.1
     assert 0.57 < p.phi < 0.63  # the reference code: 0.599 (N=500 mono), 0.614 (N=1000, sigma=0.3)
-    assert 80 < c["iterations"] < 160  # ~ (rho_out0 - rho_final) / (0.3 ... 0.5 gamma)
+    assert 80 < c.steps < 160  # ~ (rho_out0 - rho_final) / (0.3 ... 0.5 gamma)
     np.testing.assert_allclose(p.nominal_diameters, start.nominal_diameters, rtol=1e-12)
     np.testing.assert_array_equal(p.positions % p.box, p.positions)
     assert p.metadata["algorithm"] == "fb" and p.metadata["seed"] == 7
     prm = p.metadata["parameters"]
     assert prm["rate"] == 1e-3 and prm["phi_nominal"] == pytest.approx(0.6) and "paper" in prm["phi_nominal_rule"]
     h = res.history
-    assert list(h["iteration"]) == list(range(c["iterations"] + 1))
+    assert list(h["iteration"]) == list(range(c.steps + 1))
     assert np.all(np.diff(h["phi_outer"]) <= 0)  # the outer diameter only shrinks
     assert h["phi_outer"][0] == pytest.approx(1.2 * 0.6)
     assert h["max_overlap"][-1] <= 0 < h["max_overlap"][-2]
@@ -140,24 +141,25 @@ def test_checkpoint_resume_matches_uninterrupted_run(tmp_path):
     full = fb.run_fb(start, 2e-3)
     ck = tmp_path / "fb.ck.h5"
     part = fb.run_fb(start, 2e-3, max_iterations=25, checkpoint=ck)
-    assert not part.counters["finished"] and part.counters["iterations"] == 25 and ck.exists()
+    assert part.stats.stop_reason == "max_iterations" and not part.stats.completed
+    assert part.stats.steps == 25 and ck.exists()
     part.packing.validate()  # an interrupted run still returns an overlap-free packing
-    with pytest.raises(PackingFileError, match="different rate"):
+    with pytest.raises(PackingFileError, match="different input or parameters"):
         fb.run_fb(start, 1e-3, checkpoint=ck)
     with pytest.raises(PackingFileError, match="different input"):
         fb.run_fb(poisson_packing(400, 0.1, seed=6), 2e-3, checkpoint=ck)
     part2 = fb.run_fb(start, 2e-3, max_iterations=60, checkpoint=ck)  # resume, stop again
-    assert part2.counters["iterations"] == 60 and part2.counters["resumed"]
+    assert part2.stats.steps == 60 and part2.stats.resumed
     resumed = fb.run_fb(start, 2e-3, checkpoint=ck)
-    assert resumed.counters["finished"] and not ck.exists()
+    assert resumed.stats.completed and not ck.exists()
     _same_run(full, resumed)
-    assert resumed.counters["iterations"] == full.counters["iterations"]
+    assert resumed.stats.steps == full.stats.steps
 
 
 def test_already_dense_start_needs_no_iteration():
     dense = fb.run_fb(poisson_packing(300, 0.0, seed=2), 1e-2, phi_nominal=0.6).packing
     res = fb.run_fb(dense, 1e-3, phi_nominal=0.3)  # rho_in = (phi / 0.3)^(1/3) > 1.2^(1/3)
-    assert res.counters["iterations"] == 0
+    assert res.stats.steps == 0
     assert res.packing.phi == pytest.approx(dense.phi, rel=1e-12)
 
 
@@ -173,8 +175,8 @@ def test_history_is_thinned_for_long_runs(monkeypatch):
     monkeypatch.setattr(fb, "MAX_HISTORY_ROWS", 8)
     res = fb.run_fb(poisson_packing(300, 0.0, seed=3), 1e-3)
     it = res.history["iteration"]
-    n = res.counters["iterations"]
-    stride = res.counters["history_stride"]
+    n = res.stats.steps
+    stride = res.stats.extras.history_stride
     assert stride >= 8 and len(it) < 2 * 8 + 2
     assert it[-1] == n and np.all(it[:-1] % stride == 0)
 

@@ -154,7 +154,7 @@ def test_poisson_start_jams_without_overlap(sigma):
     assert packing.phi < 1e-3
     result = run_ls(packing, 0.1, seed=5, progress_interval=1e9)
     out = result.packing
-    assert result.counters["stop_reason"] == "p_max"
+    assert result.stats.stop_reason == "p_max"
     assert out.metadata["reduced_pressure"] >= 1e12
     assert out.check(1e-10).ok
     assert out.min_gap() > -1e-10
@@ -162,7 +162,7 @@ def test_poisson_start_jams_without_overlap(sigma):
     h = result.history
     assert np.all(np.diff(h["phi"]) >= 0)
     assert h["pressure"][-1] >= 1e12 > h["pressure"][-2]
-    assert result.counters["collisions"] == h["collisions"].sum()
+    assert result.stats.collisions == h["collisions"].sum()
     if sigma == 0.0:
         assert 0.60 <= out.phi <= 0.65
     else:
@@ -177,18 +177,18 @@ def test_extreme_size_ratio_stays_exact():
     assert packing.diameters.max() / packing.diameters.min() > 10
     result = run_ls(packing, 0.5, seed=1, progress_interval=1e9)
     assert result.packing.check(1e-10).ok
-    assert result.counters["stop_reason"] == "p_max"
+    assert result.stats.stop_reason == "p_max"
     assert result.packing.phi > 0.62
 
 
 def test_target_phi_and_max_collisions_stop():
     packing = poisson_packing(200, 0.1, seed=8)
     r = run_ls(packing, 0.2, seed=1, target_phi=0.4, progress_interval=1e9)
-    assert r.counters["stop_reason"] == "target_phi"
+    assert r.stats.stop_reason == "target_phi"
     assert r.packing.phi == pytest.approx(0.4, rel=1e-9)
     r = run_ls(packing, 0.001, seed=1, max_collisions=5000, progress_interval=1e9)
-    assert r.counters["stop_reason"] == "max_collisions"
-    assert r.counters["collisions"] >= 5000
+    assert r.stats.stop_reason == "max_collisions"
+    assert r.stats.collisions >= 5000
 
 
 def test_same_seed_same_result_and_seed_matters():
@@ -219,12 +219,34 @@ def test_checkpoint_resume_finishes_identically(tmp_path):
                callback=kill_at_window_6)
     assert ckpt.exists()
     resumed = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, checkpoint_interval=0.0, progress_interval=1e9)
-    assert resumed.counters["resumed"] is True
+    assert resumed.stats.resumed is True
     assert not ckpt.exists()  # removed after a finished run
     assert resumed.packing.check(1e-10).ok
     assert np.array_equal(resumed.packing.positions, reference.packing.positions)
     assert np.array_equal(resumed.history["phi"], reference.history["phi"])
-    assert resumed.counters["collisions"] == reference.counters["collisions"]
+    assert resumed.stats.collisions == reference.stats.collisions
+
+
+
+def test_wall_time_stops_keep_the_checkpoint_and_each_call_gets_its_own_budget(tmp_path):
+    """max_wall_time counts seconds of the call: a call with a tiny budget still runs one window, keeps the
+    checkpoint, and the chain of such calls ends exactly where an uninterrupted run does."""
+    packing = poisson_packing(100, 0.0, seed=3)
+    reference = run_ls(packing, 0.3, seed=4, progress_interval=1e9)
+    ckpt = tmp_path / "ls.h5"
+    calls = 0
+    while True:
+        calls += 1
+        r = run_ls(packing, 0.3, seed=4, max_wall_time=1e-9, checkpoint=ckpt, progress_interval=1e9)
+        assert r.stats.steps == calls and r.stats.resumed == (calls > 1)
+        if r.stats.stop_reason != "max_wall_time":
+            break
+        assert not r.stats.completed and ckpt.exists()
+    assert r.stats.stop_reason == "p_max" and r.stats.completed and not ckpt.exists()
+    assert calls == reference.stats.steps > 5
+    assert np.array_equal(r.packing.positions, reference.packing.positions)
+    assert np.array_equal(r.history["pressure"], reference.history["pressure"])
+    assert r.stats.wall_time >= r.history["wall_time"][-1] > r.history["wall_time"][0]  # the whole run's
 
 
 def test_checkpoint_of_another_run_is_refused(tmp_path):
@@ -312,7 +334,7 @@ def test_event_heap_stays_ordered_under_random_updates(rng):
         assert np.array_equal(heap[hpos], np.arange(n))
         assert np.array_equal(hkey, key[heap])
         assert hkey[0] == key.min()
-        parents = (np.arange(1, n) - 1) // ed.HEAP_ARITY
+        parents = (np.arange(1, n) - 1) // 4  # the heap is 4-ary
         assert np.all(hkey[parents] <= hkey[1:])
 
 

@@ -25,7 +25,7 @@ _API = {
     "run_ls": "engines.lubachevsky_stillinger",
     "find_closest_jamming": "engines.closest_jamming",
     "run_fb": "engines.force_biased",
-    "RunResult": "engines.driver",
+    "RunResult": "engines.result",
     "run_calippso": "calippso.run",
 }
 

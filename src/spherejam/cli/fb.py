@@ -45,13 +45,13 @@ def _fb(args) -> int:
         max_wall_time=args.max_wall_time, checkpoint=args.checkpoint,
         checkpoint_interval=args.checkpoint_interval, progress_interval=args.progress_interval,
     )
-    c = result.counters
-    if not c["finished"]:
+    c = result.stats
+    if not c.completed:
         where = f"; resume from checkpoint {args.checkpoint}" if args.checkpoint else ""
-        print(f"stopped after {c['iterations']} iterations (phi_inner {c['phi_inner']:.6f}), "
+        print(f"stopped ({c.stop_reason}) after {c.steps} iterations (phi_inner {c.phi_final:.6f}), "
               f"no output written{where}")
         return EXIT_FAILED
     write_packing(args.output, result.packing, result.history)
     print(f"{args.output}: N={result.packing.n} phi={result.packing.phi:.6f} "
-          f"iterations={c['iterations']} wall={c['wall_time']:.2f}s")
+          f"iterations={c.steps} wall={c.wall_time:.2f}s")
     return 0

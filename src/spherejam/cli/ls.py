@@ -96,9 +96,9 @@ def _finish(args, result, label: str) -> int:
     from ..core.packing_io import write_packing
 
     write_packing(args.output, result.packing, history=result.history)
-    c = result.counters
+    c = result.stats
     print(f"{args.output}: {label} phi={result.packing.phi:.6f} p={result.packing.metadata['reduced_pressure']:.4g} "
-          f"windows={c['windows']} collisions={c['collisions']} wall={c['wall_time']:.1f}s stop={c['stop_reason']}")
+          f"windows={c.steps} collisions={c.collisions} wall={c.wall_time:.1f}s stop={c.stop_reason}")
     return 0
 
 
@@ -131,4 +131,4 @@ def _mls(args) -> int:
         max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions,
         stall_windows=None if args.no_stall_rule else (args.stall_windows or DEFAULT_STALL_WINDOWS), **_options(args),
     )
-    return _finish(args, result, f"MLS stages={result.counters['stages']}")
+    return _finish(args, result, f"MLS stages={result.stats.extras.stages}")

@@ -1,2 +1,3 @@
 """The compression engines: Lubachevsky–Stillinger (LS), the closest-jamming search (MLS) and force-biased (FB),
-run by one window loop with one checkpoint protocol (:mod:`.driver`). Their numba code is in :mod:`.kernels`."""
+run by one step loop with one checkpoint protocol (:mod:`.driver`) and summarised by one typed result
+(:mod:`.result`). Their numba code is in :mod:`.kernels`."""

@@ -26,6 +26,7 @@ the configuration in its initial basin; slow ones at the end make the high press
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any
 
@@ -34,15 +35,16 @@ import numpy as np
 from ..core.errors import require
 from ..core.packing import Packing
 from ..core.validation import check_mls
-from .driver import RunResult
+from .driver import RunOptions
 from .lubachevsky_stillinger import (
     DEFAULT_TEMPERATURE,
     Controller,
     WindowStats,
     _finite,
-    drive,
-    validate_common,
+    run_windows,
+    validate_ls_options,
 )
+from .result import LSCounts, MLSCounts, RunResult
 
 CHECKPOINT_KIND_MLS = "mls"
 #: A stall counts only at p >= this fraction of p_max: lower plateaus are not the precision floor.
@@ -60,7 +62,6 @@ class MLSController(Controller):
     """
 
     kind = CHECKPOINT_KIND_MLS
-    extra_columns = ("stage",)
 
     def __init__(self, initial_rate: float, decrease_factor: float, final_rate: float, p_max: float,
                  max_equilibration_windows: int, stall_windows: int | None = DEFAULT_STALL_WINDOWS):
@@ -133,14 +134,15 @@ class MLSController(Controller):
             # checkpoints written before the stall rule lack its fields: they start from a fresh count
             setattr(self, k, type(getattr(self, k))(state.get(k, getattr(self, k))))
 
-    def counters(self) -> dict[str, Any]:
-        return {
-            "stages": self.stage + 1,
-            "rate_decreases": self.restarts,
-            "equilibration_windows": self.equilibration_windows,
-            "final_rate_reached": self.rate if self.rate > 0 else self.last_growth_rate,
-            "stalled_stages": self.stalled_stages,
-        }
+    def extras(self, counts: LSCounts) -> MLSCounts:
+        return MLSCounts(
+            **dataclasses.asdict(counts),
+            stages=self.stage + 1,
+            rate_decreases=self.restarts,
+            equilibration_windows=self.equilibration_windows,
+            final_rate_reached=self.rate if self.rate > 0 else self.last_growth_rate,
+            stalled_stages=self.stalled_stages,
+        )
 
 
 def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrease_factor: float = 2.0,
@@ -184,14 +186,15 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     -------
     RunResult
         The jammed packing (actual diameters; metadata ``algorithm="mls"``), per-window history (as LS plus
-        ``stage``) and counters: ``phi_J``, ``phi_initial``, ``stages``, ``rate_decreases``,
-        ``equilibration_windows``, ``final_rate_reached``, ``stalled_stages``, ``stop_reason`` ("final_rate",
-        "final_rate_stalled", "jammed", "max_collisions" or "max_wall_time"), ``collisions``, ``events``,
-        ``windows``, ``wall_time``.
+        ``stage``) and ``stats`` (:class:`~spherejam.engines.result.RunStats`): ``phi_final`` is phi_J;
+        stop_reason "final_rate", "final_rate_stalled", "jammed", "max_collisions" or "max_wall_time"; steps =
+        windows; extras :class:`~spherejam.engines.result.MLSCounts` (stages, rate_decreases,
+        equilibration_windows, final_rate_reached, stalled_stages and the event totals).
     """
-    validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
-                    max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
-                    progress_interval=progress_interval, max_collisions=max_collisions)
+    validate_ls_options(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
+                        temperature=temperature, max_collisions=max_collisions)
+    options = RunOptions(max_wall_time=max_wall_time, checkpoint=checkpoint,
+                         checkpoint_interval=checkpoint_interval, progress_interval=progress_interval)
     require(_finite(initial_rate) and initial_rate > 0, "initial_rate", initial_rate, "must be a finite number > 0")
     require(_finite(decrease_factor) and decrease_factor > 1, "decrease_factor", decrease_factor,
             "must be a finite number > 1")
@@ -212,11 +215,7 @@ def find_closest_jamming(packing: Packing, *, initial_rate: float = 10.0, decrea
     }
     controller = MLSController(initial_rate, decrease_factor, final_rate, p_max, max_equilibration_windows,
                                stall_windows)
-    result = drive(packing, controller, algorithm="mls", parameters=parameters, seed=seed,
-                   events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
-                   temperature=temperature, target_phi=None, max_collisions=max_collisions, max_wall_time=max_wall_time,
-                   checkpoint=checkpoint, checkpoint_interval=checkpoint_interval,
-                   progress_interval=progress_interval, callback=callback, engine_options=engine_options)
-    result.counters["phi_J"] = result.counters["phi_final"]
-    result.packing.metadata["counters"] = result.counters
-    return result
+    return run_windows(packing, controller, options, algorithm="mls", parameters=parameters, seed=seed,
+                       events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
+                       temperature=temperature, target_phi=None, max_collisions=max_collisions,
+                       engine_options=engine_options, callback=callback)

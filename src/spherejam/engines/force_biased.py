@@ -31,21 +31,18 @@ bitwise identical to an uninterrupted one.
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import time
-from pathlib import Path
 
 import numpy as np
 
 from ..core import neighbours
-from ..core.checkpoint import load_checkpoint, save_checkpoint
-from ..core.errors import PackingFileError, SimulationError, require
+from ..core.checkpoint import fingerprint
+from ..core.errors import SimulationError, require
 from ..core.packing import Packing, ball_volume
 from ..core.progress import rate as per_second
-from .driver import Progress, RunResult
+from .driver import History, RunOptions, Stepper, drive
 from .kernels import force_biased as kernels
+from .result import FBCounts, RunResult, RunStats
 
 #: Outer spheres start at this multiple of the nominal density (Bezrukov et al. 2002).
 OUTER_DENSITY_RATIO = 1.2
@@ -60,7 +57,6 @@ CELL_QUANTILE = 0.9
 #: The history keeps at most 2 * this many rows; beyond, every other row is dropped and the stride doubles.
 MAX_HISTORY_ROWS = 20000
 CHECKPOINT_KIND = "fb"
-HISTORY_COLUMNS = ("iteration", "phi_inner", "phi_outer", "max_overlap", "wall_time")
 
 
 def nominal_density_for_rate(rate) -> float:
@@ -128,14 +124,6 @@ class _Neighbours:
         return self.rho_built + (self.skin - 2.0 * self.max_drift) / self.max_diameter
 
 
-def _input_fingerprint(packing: Packing) -> str:
-    h = hashlib.sha256()
-    h.update(np.ascontiguousarray(packing.positions).tobytes())
-    h.update(np.ascontiguousarray(packing.diameters).tobytes())
-    h.update(np.float64(packing.box).tobytes())
-    return h.hexdigest()
-
-
 def _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim):
     """The outer-ratio update of one iteration (Bezrukov et al. 2002 schedule)."""
     delta = OUTER_DENSITY_RATIO * phi_nominal - phi_nominal * rho_in**dim
@@ -145,32 +133,123 @@ def _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim):
     return rho_out - 0.5**k * rho_out0 * rate
 
 
-class _History:
-    """Per-iteration rows, thinned for long runs: rows at iterations that are multiples of ``stride``."""
+class FBRun(Stepper):
+    """The FB iteration, as :func:`~.driver.drive` steps it."""
 
-    def __init__(self, phi_nominal, dim, columns=None, stride=1):
-        self.phi_nominal, self.dim, self.stride = phi_nominal, dim, int(stride)
-        self.rows = {k: list(np.asarray(columns[k]).tolist()) if columns else [] for k in HISTORY_COLUMNS}
+    kind = CHECKPOINT_KIND
+    step_name = "iteration"
 
-    def add(self, iteration, rho_in, rho_out, wall_time, force=False):
-        if not force and iteration % self.stride:
-            return
-        if self.rows["iteration"] and self.rows["iteration"][-1] == iteration:
-            return
-        row = (iteration, self.phi_nominal * rho_in**self.dim, self.phi_nominal * rho_out**self.dim,
-               1.0 - rho_in / rho_out, wall_time)
-        for key, value in zip(HISTORY_COLUMNS, row):
-            self.rows[key].append(value)
-        if len(self.rows["iteration"]) >= 2 * MAX_HISTORY_ROWS:
-            self.stride *= 2
-            keep = [i for i, it in enumerate(self.rows["iteration"]) if it % self.stride == 0]
-            for key in HISTORY_COLUMNS:
-                self.rows[key] = [self.rows[key][i] for i in keep]
+    def __init__(self, packing: Packing, rate: float, phi_nominal: float, max_iterations: int | None,
+                 parameters: dict):
+        self.input, self.rate, self.phi_nominal, self.max_iterations = packing, rate, phi_nominal, max_iterations
+        self.parameters = parameters
+        self.box, self.dim = packing.box, packing.dim
+        rel = packing.diameters / packing.mean_diameter
+        self.nominal = rel * (phi_nominal * self.box**self.dim / float(np.sum(ball_volume(rel, self.dim)))) ** (
+            1.0 / self.dim)
+        self.rho_out0 = OUTER_DENSITY_RATIO ** (1.0 / self.dim)
+        self.label = f"fb N={packing.n} rate={rate:g}"
+        self.forces = np.zeros_like(packing.positions)
+        self.dx = np.empty(self.dim)
 
-    def arrays(self):
-        out = {k: np.asarray(v, dtype=np.float64) for k, v in self.rows.items()}
-        out["iteration"] = out["iteration"].astype(np.int64)
-        return out
+    def _history(self, columns=None, stride=1) -> History:
+        return History(columns, step="iteration", max_rows=MAX_HISTORY_ROWS, stride=stride)
+
+    def _add_row(self, wall_time: float, force: bool = False) -> None:
+        self.history.append(force=force, iteration=self.iteration, phi_inner=self.phi,
+                            phi_outer=self.phi_nominal * self.rho_out**self.dim,
+                            max_overlap=1.0 - self.rho_in / self.rho_out, wall_time=wall_time)
+
+    def _compute_forces(self) -> float:
+        """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
+        nb, positions, nominal, box = self.nb, self.positions, self.nominal, self.box
+        nb.refresh(positions, nominal, box, self.rho_out)
+        h = kernels.forces(positions, nominal, box, self.rho_out, nb.start, nb.list, self.forces, self.dx)
+        if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
+            i, j, _ = neighbours.closest_pair(positions, nominal, box)
+            h = kernels.pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in kernels.forces
+        if not math.isfinite(h) or not np.all(np.isfinite(self.forces)):
+            raise SimulationError(f"FB iteration {self.iteration}: non-finite forces or inner ratio ({h!r})")
+        return h
+
+    # --- Stepper ---------------------------------------------------------------------------------------------
+    def start(self, wall_time) -> None:
+        self.positions = self.input.positions.copy()
+        self.rho_out, self.iteration = self.rho_out0, 0
+        self.history = self._history()
+        self.nb = _Neighbours(self.positions, self.nominal, self.box, self.rho_out)
+        self.rho_in = self._compute_forces()
+        self._phi_initial = self.phi
+        self._add_row(wall_time(), force=True)
+
+    def load(self, arrays, attrs, history) -> None:
+        self.positions, self.forces = arrays["positions"].copy(), arrays["forces"].copy()
+        self.rho_out, self.rho_in = float(attrs["rho_out"]), float(attrs["rho_in"])
+        self.iteration, self._phi_initial = int(attrs["iteration"]), float(attrs["phi_initial"])
+        self.history = self._history(history, attrs["history_stride"])
+        self.nb = _Neighbours(self.positions, self.nominal, self.box, self.rho_out)
+        self.nb.rebuilds = int(attrs["neighbour_rebuilds"])
+
+    def state(self):
+        return {"positions": self.positions, "forces": self.forces}, {
+            "rho_out": self.rho_out, "rho_in": self.rho_in, "iteration": self.iteration,
+            "phi_initial": self._phi_initial, "history_stride": self.history.stride,
+            "neighbour_rebuilds": self.nb.rebuilds}
+
+    def stop_before(self) -> str | None:
+        if not self.rho_out > self.rho_in:
+            return "converged"
+        if self.max_iterations is not None and self.iteration >= self.max_iterations:
+            return "max_iterations"
+        return None
+
+    def step(self, wall_time) -> str | None:
+        prefactor = FORCE_SCALING / 2.0 * self.rho_out * self.rho_out
+        self.nb.max_drift = kernels.move(self.positions, self.nominal, self.box, self.forces, prefactor, self.nb.drift)
+        self.rho_in = self._compute_forces()
+        self.rho_out = _shrink(self.rho_out, self.rho_in, self.rho_out0, self.rate, self.phi_nominal, self.dim)
+        self.iteration += 1
+        self._add_row(wall_time())
+        return self.stop_before()
+
+    def report(self, progress, stop, wall_time) -> None:
+        phi_in, phi_out = self.phi, self.phi_nominal * self.rho_out**self.dim
+        progress.update(f"iteration {self.iteration}: phi_inner {phi_in:.6f}, phi_outer {phi_out:.6f}",
+                        fields={"iteration": self.iteration, "φ_in": phi_in, "φ_out": phi_out,
+                                "iterations/s": per_second(self.iteration, wall_time)},
+                        bar=(phi_in / phi_out, "φ_in/φ_out"))
+
+    def finish(self, wall_time) -> None:
+        self._add_row(wall_time, force=True)  # the last iteration, also off the history's stride
+
+    @property
+    def steps(self) -> int:
+        return self.iteration
+
+    @property
+    def collisions(self) -> None:
+        return None
+
+    @property
+    def phi_initial(self) -> float:
+        return self._phi_initial
+
+    @property
+    def phi(self) -> float:
+        return self.phi_nominal * self.rho_in**self.dim
+
+    def extras(self) -> FBCounts:
+        return FBCounts(phi_outer=self.phi_nominal * self.rho_out**self.dim, rho_inner=self.rho_in,
+                        rho_outer=self.rho_out, neighbour_rebuilds=self.nb.rebuilds,
+                        history_stride=self.history.stride)
+
+    def result(self, stats: RunStats) -> Packing:
+        metadata = {"algorithm": "fb", "parameters": self.parameters, "counters": stats.as_dict()}
+        if "seed" in self.input.metadata:
+            metadata["seed"] = self.input.metadata["seed"]
+        result = Packing(self.positions, self.nominal * self.rho_in, self.box, metadata)
+        result.validate(what="FB result")
+        return result
 
 
 def run_fb(
@@ -196,14 +275,12 @@ def run_fb(
         Nominal density: the nominal diameters are scaled to fill this fraction of the box. ``None`` (default) uses
         the paper's rule :func:`nominal_density_for_rate` (d = 3 only).
     max_iterations : int, optional
-        Stop after this many iterations in all (counting those before a resume); the result is then unfinished.
-    max_wall_time : float, optional
-        Stop after this many seconds of this call (unfinished result; a checkpoint is written if requested).
-    checkpoint : path, optional
-        HDF5 checkpoint: resumed from if it exists, written every ``checkpoint_interval`` s and when the run
-        stops early, deleted when the run finishes.
-    progress_interval : float
-        Seconds between progress lines (logger ``spherejam``).
+        Stop after this many iterations in all (counting those before a resume); the result is then unfinished and
+        the checkpoint, if any, is kept.
+    max_wall_time, checkpoint, checkpoint_interval, progress_interval :
+        The run options (:class:`spherejam.engines.driver.RunOptions`): seconds of this call (unfinished result,
+        checkpoint kept); the HDF5 checkpoint (resumed from if it matches, written every ``checkpoint_interval``
+        s and when the run stops early, deleted when the run converges); seconds between progress lines.
 
     Returns
     -------
@@ -211,11 +288,11 @@ def run_fb(
         ``packing`` at the inner (actual) diameters, overlap-free with the closest pair touching; ``history``
         columns ``iteration, phi_inner, phi_outer, max_overlap, wall_time`` (max_overlap = 1 - rho_in/rho_out, the
         worst relative overlap of the outer spheres; wall_time in s since the run began, resumes included);
-        ``counters`` ``iterations, wall_time, phi_inner, phi_outer, finished, neighbour_rebuilds,
-        history_stride``. The history has one row per iteration (plus iteration 0, the start) up to
-        2 * MAX_HISTORY_ROWS rows; longer runs keep every 2^k-th iteration and always the last one.
+        ``stats`` (:class:`~spherejam.engines.result.RunStats`: stop_reason "converged", "max_iterations" or
+        "max_wall_time"; steps = iterations; collisions None; phi_final = phi_inner; extras
+        :class:`~spherejam.engines.result.FBCounts`). The history has one row per iteration (plus iteration 0,
+        the start) up to 2 * MAX_HISTORY_ROWS rows; longer runs keep every 2^k-th iteration and always the last.
     """
-    started = time.perf_counter()
     require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a spherejam Packing")
     n, dim = packing.n, packing.dim
     require(n >= 2, "N", n, "FB needs at least 2 spheres")
@@ -231,20 +308,8 @@ def run_fb(
     if max_iterations is not None:
         require(isinstance(max_iterations, (int, np.integer)) and max_iterations >= 0, "max_iterations",
                 max_iterations, "must be an integer >= 0 or None")
-    if max_wall_time is not None:
-        require(math.isfinite(max_wall_time) and max_wall_time > 0, "max_wall_time", max_wall_time,
-                "must be None or a number > 0 (seconds)")
-    # as in LS: 0 = at every iteration
-    require(math.isfinite(checkpoint_interval) and checkpoint_interval >= 0, "checkpoint_interval",
-            checkpoint_interval, "must be a number >= 0 (seconds)")
-    require(math.isfinite(progress_interval) and progress_interval >= 0, "progress_interval", progress_interval,
-            "must be a number >= 0 (seconds)")
-
-    box = packing.box
-    rel = packing.diameters / packing.mean_diameter
-    nominal = rel * (phi_nominal * box**dim / float(np.sum(ball_volume(rel, dim)))) ** (1.0 / dim)
-    rho_out0 = OUTER_DENSITY_RATIO ** (1.0 / dim)
-    fingerprint = _input_fingerprint(packing)
+    options = RunOptions(max_wall_time=max_wall_time, checkpoint=checkpoint,
+                         checkpoint_interval=checkpoint_interval, progress_interval=progress_interval)
     parameters = {
         "rate": rate,
         "phi_nominal": phi_nominal,
@@ -256,109 +321,9 @@ def run_fb(
         "max_wall_time": max_wall_time,
         "n": n,
         "dim": dim,
-        "box": box,
+        "box": packing.box,
         "sigma": packing.polydispersity,
     }
-
-    positions = packing.positions.copy()
-    forces = np.zeros_like(positions)
-    dx = np.empty(dim)
-    checkpoint = Path(checkpoint) if checkpoint is not None else None
-    resumed = checkpoint is not None and checkpoint.exists()
-    if resumed:
-        arrays, attrs = load_checkpoint(checkpoint, CHECKPOINT_KIND)
-        for key, value in (("input_sha256", fingerprint), ("rate", rate), ("phi_nominal", phi_nominal)):
-            if attrs.get(key) != value:
-                raise PackingFileError(f"{checkpoint}: checkpoint was made with a different {key} "
-                                       f"({attrs.get(key)!r}, this run {value!r}); delete it or change the path")
-        positions, forces = arrays["positions"].copy(), arrays["forces"].copy()
-        rho_out, rho_in, iteration = float(attrs["rho_out"]), float(attrs["rho_in"]), int(attrs["iteration"])
-        wall_before = float(attrs["wall_time"])
-        history = _History(phi_nominal, dim, {k: arrays[f"history_{k}"] for k in HISTORY_COLUMNS},
-                           attrs["history_stride"])
-        nb = _Neighbours(positions, nominal, box, rho_out)
-        nb.rebuilds = int(attrs["neighbour_rebuilds"])
-    else:
-        rho_out, iteration, wall_before = rho_out0, 0, 0.0
-        history = _History(phi_nominal, dim)
-        nb = _Neighbours(positions, nominal, box, rho_out)
-
-    def elapsed():
-        return wall_before + time.perf_counter() - started
-
-    def compute_forces():
-        """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
-        nb.refresh(positions, nominal, box, rho_out)
-        h = kernels.forces(positions, nominal, box, rho_out, nb.start, nb.list, forces, dx)
-        if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
-            i, j, _ = neighbours.closest_pair(positions, nominal, box)
-            h = kernels.pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in kernels.forces
-        if not math.isfinite(h) or not np.all(np.isfinite(forces)):
-            raise SimulationError(f"FB iteration {iteration}: non-finite forces or inner ratio ({h!r})")
-        return h
-
-    if not resumed:
-        rho_in = compute_forces()
-        history.add(0, rho_in, rho_out, elapsed(), force=True)
-
-    def save_state():
-        arrays = {"positions": positions, "forces": forces}
-        arrays.update({f"history_{k}": v for k, v in history.arrays().items()})
-        attrs = {"input_sha256": fingerprint, "rate": rate, "phi_nominal": phi_nominal, "rho_out": rho_out,
-                 "rho_in": rho_in, "iteration": iteration, "wall_time": elapsed(),
-                 "history_stride": history.stride, "neighbour_rebuilds": nb.rebuilds}
-        save_checkpoint(checkpoint, CHECKPOINT_KIND, arrays, attrs)
-
-    progress = Progress(f"fb N={n} gamma={rate:g}", progress_interval)
-    last_checkpoint = time.perf_counter()
-    prefactor = FORCE_SCALING / 2.0
-    stopped_early = False
-    while rho_out > rho_in:
-        if (max_iterations is not None and iteration >= max_iterations) or (
-            max_wall_time is not None and time.perf_counter() - started >= max_wall_time
-        ):
-            stopped_early = True
-            break
-        nb.max_drift = kernels.move(positions, nominal, box, forces, prefactor * rho_out * rho_out, nb.drift)
-        rho_in = compute_forces()
-        rho_out = _shrink(rho_out, rho_in, rho_out0, rate, phi_nominal, dim)
-        iteration += 1
-        t = elapsed()
-        history.add(iteration, rho_in, rho_out, t)
-        phi_in, phi_out = phi_nominal * rho_in**dim, phi_nominal * rho_out**dim
-        progress.update(f"iteration {iteration}: phi_inner {phi_in:.6f}, phi_outer {phi_out:.6f}",
-                        fields={"iteration": iteration, "φ_in": phi_in, "φ_out": phi_out,
-                                "iterations/s": per_second(iteration, t)},
-                        bar=(phi_in / phi_out, "φ_in/φ_out"))
-        if checkpoint is not None and time.perf_counter() - last_checkpoint >= checkpoint_interval:
-            save_state()
-            last_checkpoint = time.perf_counter()
-
-    wall = elapsed()
-    history.add(iteration, rho_in, rho_out, wall, force=True)
-    if checkpoint is not None:
-        if stopped_early:
-            save_state()
-        elif checkpoint.exists():
-            os.unlink(checkpoint)
-    phi_inner, phi_outer = phi_nominal * rho_in**dim, phi_nominal * rho_out**dim
-    counters = {
-        "iterations": iteration,
-        "wall_time": wall,
-        "phi_inner": phi_inner,
-        "phi_outer": phi_outer,
-        "rho_inner": rho_in,
-        "rho_outer": rho_out,
-        "finished": not stopped_early,
-        "resumed": resumed,
-        "neighbour_rebuilds": nb.rebuilds,
-        "history_stride": history.stride,
-    }
-    metadata = {"algorithm": "fb", "parameters": parameters, "counters": counters}
-    if "seed" in packing.metadata:
-        metadata["seed"] = packing.metadata["seed"]
-    result = Packing(positions, nominal * rho_in, box, metadata)
-    result.validate(what="FB result")
-    progress.update(f"{'done' if not stopped_early else 'stopped'} after {iteration} iterations: "
-                    f"phi = {phi_inner:.6f}", force=True)
-    return RunResult(packing=result, history=history.arrays(), counters=counters, wall_time=wall)
+    budget_free = {k: v for k, v in parameters.items() if k not in ("max_iterations", "max_wall_time")}
+    run = FBRun(packing, rate, phi_nominal, max_iterations, parameters)
+    return drive(run, options, fingerprint(packing, CHECKPOINT_KIND, budget_free))

@@ -15,40 +15,39 @@ reference code; or collisions only, ``count_collisions_only=True``). After each 
 * clock reset: rho0 += gamma dt, t = 0 (keeps times small near jamming; every event is re-predicted, none lost);
 * audit: every listed pair is checked for overlap (relative tolerance 1e-10), else :class:`SimulationError`.
 
-The run stops at p >= p_max (1e12), at ``target_phi``, after ``max_collisions`` or ``max_wall_time``. The result
-is audited again with an independent all-pairs cell search; an overlapping packing is never returned.
+The run stops at p >= p_max (1e12), at ``target_phi``, after ``max_collisions`` or after ``max_wall_time`` seconds of
+the call. The result is audited again with an independent all-pairs cell search; an overlapping packing is never
+returned. :class:`WindowRun` is the window step that :func:`spherejam.engines.driver.drive` runs, for LS and MLS.
 """
 
 from __future__ import annotations
 
-import hashlib
+import dataclasses
 import math
-import os
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..core.checkpoint import load_checkpoint, save_checkpoint
-from ..core.errors import InputError, PackingFileError, SimulationError, require
+from ..core.checkpoint import fingerprint
+from ..core.errors import InputError, SimulationError, require
 from ..core.neighbours import closest_pair
 from ..core.packing import Packing, ball_volume
 from ..core.progress import log_fraction
 from ..core.progress import rate as rate_of
 from ..core.validation import EVENTS_PER_PARTICLE
-from .driver import History, Progress, RunResult
+from .driver import History, RunOptions, Stepper, drive
 from .kernels import event_driven as ed
+from .result import LSCounts, RunResult, RunStats
+
+if TYPE_CHECKING:
+    from .result import MLSCounts
 
 DEFAULT_TEMPERATURE = 0.2
 #: Relative overlap that makes a window audit (or the final audit) fail.
 AUDIT_TOLERANCE = 1e-10
 CHECKPOINT_KIND_LS = "ls"
-
-_HISTORY_COLUMNS = ("window", "phi", "pressure", "rate", "collisions", "events", "duration", "temperature",
-                    "wall_time")
 
 
 @dataclass
@@ -308,7 +307,7 @@ class LSEngine:
         self.scratch = np.zeros((1, max(self.nbr.shape[1], 64)), dtype=np.int32)
 
 
-# --- shared driver of LS-type protocols (plain LS and MLS) -------------------------------------------------------
+# --- LS-type runs (plain LS and MLS): windows under a rate controller --------------------------------------------
 
 
 def maxwell_velocities(n: int, temperature: float, rng: np.random.Generator) -> np.ndarray:
@@ -319,8 +318,8 @@ def maxwell_velocities(n: int, temperature: float, rng: np.random.Generator) -> 
     return v
 
 
-def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time, temperature, checkpoint_interval,
-                    progress_interval, max_collisions=None) -> None:
+def validate_ls_options(packing, *, p_max, seed, events_per_particle, temperature, max_collisions=None) -> None:
+    """The checks of the arguments that LS and MLS share (the run options are checked by :class:`RunOptions`)."""
     require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a spherejam Packing")
     require(packing.n >= 2, "N", packing.n, "must be >= 2")
     require(packing.dim == 3, "dim", packing.dim, "the LS engine supports d = 3 only")
@@ -328,36 +327,19 @@ def validate_common(packing, *, p_max, seed, events_per_particle, max_wall_time,
     require(isinstance(seed, (int, np.integer)) and seed >= 0, "seed", seed, "must be an integer >= 0")
     require(isinstance(events_per_particle, (int, np.integer)) and EVENTS_PER_PARTICLE.ok(events_per_particle),
             "events_per_particle", events_per_particle, EVENTS_PER_PARTICLE.rule())  # int64 window counters
-    require(max_wall_time is None or (_finite(max_wall_time) and max_wall_time > 0), "max_wall_time",
-            max_wall_time, "must be None or a number > 0 (seconds)")
     require(max_collisions is None or (isinstance(max_collisions, (int, np.integer)) and max_collisions >= 1),
             "max_collisions", max_collisions, "must be None or an integer >= 1")
     require(_finite(temperature) and temperature > 0, "temperature", temperature, "must be a finite number > 0")
-    require(_finite(checkpoint_interval) and checkpoint_interval >= 0, "checkpoint_interval", checkpoint_interval,
-            "must be a number >= 0 (seconds)")
-    require(_finite(progress_interval) and progress_interval >= 0, "progress_interval", progress_interval,
-            "must be a number >= 0 (seconds)")
 
 
 def _finite(x) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def _fingerprint(packing: Packing, kind: str, params: dict[str, Any]) -> str:
-    h = hashlib.sha256()
-    h.update(kind.encode())
-    h.update(np.ascontiguousarray(packing.positions).tobytes())
-    h.update(np.ascontiguousarray(packing.diameters).tobytes())
-    h.update(repr(float(packing.box)).encode())
-    h.update(repr(sorted(params.items())).encode())
-    return h.hexdigest()
-
-
 class Controller:
     """Decides the compression rate window by window (plain LS: constant rate, stop at p >= p_max)."""
 
     kind = CHECKPOINT_KIND_LS
-    extra_columns: tuple[str, ...] = ()
 
     def __init__(self, rate: float, p_max: float):
         self.rate = float(rate)
@@ -368,6 +350,7 @@ class Controller:
         return "p_max" if stats.pressure >= self.p_max else None
 
     def extra_row(self) -> dict[str, Any]:
+        """Columns the controller adds to the history row of a window."""
         return {}
 
     def progress_fields(self) -> dict[str, Any]:
@@ -380,131 +363,146 @@ class Controller:
     def load(self, state: dict[str, Any]) -> None:
         self.rate = float(state["rate"])
 
-    def counters(self) -> dict[str, Any]:
-        return {}
+    def extras(self, counts: LSCounts) -> LSCounts | MLSCounts:
+        """The extras of the run's :class:`RunStats`, from the event totals."""
+        return counts
 
 
-def drive(packing: Packing, controller: Controller, *, algorithm: str, parameters: dict[str, Any], seed: int,
-          events_per_particle: int, count_collisions_only: bool, temperature: float, target_phi: float | None,
-          max_collisions: int | None, max_wall_time: float | None, checkpoint, checkpoint_interval: float,
-          progress_interval: float, callback: Callable[[int, WindowStats], None] | None = None,
-          engine_options: dict[str, Any] | None = None) -> RunResult:
-    """Run windows under ``controller`` from ``packing`` (or resume from ``checkpoint``) and audit the result."""
-    wall0 = time.perf_counter()
-    n = packing.n
-    nominal = packing.diameters / packing.diameters.mean()
-    phi_nominal = float(np.sum(ball_volume(nominal, 3)) / packing.box**3)
-    rho_target = None if target_phi is None else (target_phi / phi_nominal) ** (1.0 / 3.0)
-    budget_free = {k: v for k, v in parameters.items()
-                   if k not in ("max_wall_time", "max_collisions", "checkpoint_interval", "progress_interval")}
-    fingerprint = _fingerprint(packing, controller.kind, budget_free)
+#: Event totals of a run, as kept in its checkpoint: LSCounts' fields plus collisions and windows.
+_TOTALS = ("collisions", "windows") + tuple(f.name for f in dataclasses.fields(LSCounts))
+#: Parameters that only bound the run: they do not enter the checkpoint's fingerprint.
+_BUDGETS = ("max_wall_time", "max_collisions", "checkpoint_interval", "progress_interval")
 
-    history = History()
-    totals = {"collisions": 0, "events": 0, "windows": 0, "skin_events": 0, "moves": 0, "null_collisions": 0,
-              "list_rebuilds": 0}
-    wall_before = 0.0
-    rng = np.random.default_rng(np.random.SeedSequence(int(seed)))
-    ckpt = Path(checkpoint) if checkpoint is not None else None
-    resumed = False
-    if ckpt is not None and ckpt.exists():
-        arrays, attrs = load_checkpoint(ckpt, controller.kind)
-        if attrs.get("fingerprint") != fingerprint:
-            raise PackingFileError(f"{ckpt}: checkpoint belongs to a different input or parameters; delete it")
-        engine = LSEngine.__new__(LSEngine)
-        _init_bare(engine, n, packing.box, temperature, engine_options)
-        engine.load_state(arrays, attrs["engine"])
-        controller.load(attrs["controller"])
-        history = History({k[len("history_"):]: v for k, v in arrays.items() if k.startswith("history_")})
-        totals = dict(attrs["totals"])
-        wall_before = float(attrs["wall_time"])
-        rng.bit_generator.state = attrs["rng_state"]
-        phi_initial = float(attrs["phi_initial"])
-        resumed = True
-    else:
-        rho = closest_pair(packing.positions, nominal, packing.box)[2]
-        velocities = maxwell_velocities(n, temperature, rng)
-        engine = LSEngine(packing.positions, nominal, packing.box, rho, velocities, controller.rate, temperature,
-                          **(engine_options or {}))
-        phi_initial = phi_nominal * rho**3
 
-    progress = Progress(algorithm, progress_interval)
-    last_ckpt = time.perf_counter()
-    target = int(events_per_particle) * n
-    stop = None
-    if rho_target is not None and engine.rho0 >= rho_target:
-        stop = "target_phi"
-    last_pressure = float(history.last("pressure", math.nan))
-    while stop is None:
-        engine.gamma = controller.rate
-        rate = controller.rate
-        stats = engine.window(target, count_collisions_only, rho_target)
-        for key, value in (("collisions", stats.collisions), ("events", stats.events),
-                           ("skin_events", stats.skin_events), ("moves", stats.moves),
-                           ("null_collisions", stats.null_collisions), ("list_rebuilds", stats.list_rebuilds)):
-            totals[key] += value
-        totals["windows"] += 1
-        wall = wall_before + time.perf_counter() - wall0
-        phi = phi_nominal * engine.rho0**3
-        last_pressure = stats.pressure
-        row = {"window": totals["windows"], "phi": phi, "pressure": stats.pressure, "rate": rate,
-               "collisions": stats.collisions, "events": stats.events, "duration": stats.duration,
-               "temperature": stats.temperature, "wall_time": wall}
-        row.update(controller.extra_row())
-        history.append(**row)
-        stop = controller.after_window(stats)
+class WindowRun(Stepper):
+    """LS windows under a :class:`Controller` (plain LS or MLS), as :func:`~.driver.drive` steps them."""
+
+    step_name = "window"
+
+    def __init__(self, packing: Packing, controller: Controller, *, algorithm: str, parameters: dict[str, Any],
+                 seed: int, events_per_particle: int, count_collisions_only: bool, temperature: float,
+                 target_phi: float | None, max_collisions: int | None, engine_options: dict[str, Any] | None,
+                 callback: Callable[[int, WindowStats], None] | None):
+        self.input, self.controller = packing, controller
+        self.kind, self.label, self.algorithm = controller.kind, algorithm, algorithm
+        self.parameters, self.seed = parameters, int(seed)
+        self.target = int(events_per_particle) * packing.n
+        self.count_collisions_only, self.temperature = bool(count_collisions_only), float(temperature)
+        self.max_collisions, self.engine_options, self.user_callback = max_collisions, engine_options, callback
+        self.nominal = packing.diameters / packing.diameters.mean()
+        self.phi_nominal = float(np.sum(ball_volume(self.nominal, 3)) / packing.box**3)
+        self.rho_target = None if target_phi is None else (target_phi / self.phi_nominal) ** (1.0 / 3.0)
+        self.rng = np.random.default_rng(np.random.SeedSequence(self.seed))
+        self.history = History()
+        self.totals = dict.fromkeys(_TOTALS, 0)
+        self.last_stats: WindowStats | None = None
+        self.last_pressure = math.nan
+
+    def fingerprint(self) -> str:
+        return fingerprint(self.input, self.kind, {k: v for k, v in self.parameters.items() if k not in _BUDGETS})
+
+    # --- Stepper ---------------------------------------------------------------------------------------------
+    def start(self, wall_time) -> None:
+        rho = closest_pair(self.input.positions, self.nominal, self.input.box)[2]
+        velocities = maxwell_velocities(self.input.n, self.temperature, self.rng)
+        self.engine = LSEngine(self.input.positions, self.nominal, self.input.box, rho, velocities,
+                               self.controller.rate, self.temperature, **(self.engine_options or {}))
+        self._phi_initial = self.phi_nominal * rho**3
+
+    def load(self, arrays, attrs, history) -> None:
+        self.engine = LSEngine.__new__(LSEngine)
+        _init_bare(self.engine, self.input.n, self.input.box, self.temperature, self.engine_options)
+        self.engine.load_state(arrays, attrs["engine"])
+        self.controller.load(attrs["controller"])
+        self.history = History(history)
+        self.totals = dict(attrs["totals"])
+        self.rng.bit_generator.state = attrs["rng_state"]
+        self._phi_initial = float(attrs["phi_initial"])
+        self.last_pressure = float(self.history.last("pressure", math.nan))
+
+    def state(self):
+        arrays, engine_attrs = self.engine.state()
+        return arrays, {"engine": engine_attrs, "controller": self.controller.state(), "totals": self.totals,
+                        "rng_state": self.rng.bit_generator.state, "phi_initial": self._phi_initial}
+
+    def stop_before(self) -> str | None:
+        return "target_phi" if self.rho_target is not None and self.engine.rho0 >= self.rho_target else None
+
+    def step(self, wall_time) -> str | None:
+        rate = self.engine.gamma = self.controller.rate
+        stats = self.engine.window(self.target, self.count_collisions_only, self.rho_target)
+        for key in _TOTALS[2:]:
+            self.totals[key] += getattr(stats, key)
+        self.totals["collisions"] += stats.collisions
+        self.totals["windows"] += 1
+        self.last_stats, self.last_pressure = stats, stats.pressure
+        self.history.append(window=self.totals["windows"], phi=self.phi, pressure=stats.pressure, rate=rate,
+                            collisions=stats.collisions, events=stats.events, duration=stats.duration,
+                            temperature=stats.temperature, wall_time=wall_time(), **self.controller.extra_row())
+        stop = self.controller.after_window(stats)
         if stop is None and stats.reached_target:
             stop = "target_phi"
-        if stop is None and max_collisions is not None and totals["collisions"] >= max_collisions:
+        if stop is None and self.max_collisions is not None and self.totals["collisions"] >= self.max_collisions:
             stop = "max_collisions"
-        if stop is None and max_wall_time is not None and wall >= max_wall_time:
-            stop = "max_wall_time"
-        progress.update(
-            f"window {totals['windows']}: phi={phi:.6f} p={stats.pressure:.4g} rate={rate:.4g} "
-            f"collisions={totals['collisions']:,} ({totals['collisions'] / max(wall, 1e-9):,.0f}/s)"
-            + (f" stop={stop}" if stop else ""),
-            fields={**controller.progress_fields(), "p": stats.pressure, "φ": phi,
-                    "collisions/s": rate_of(totals["collisions"], wall)},
-            bar=(log_fraction(stats.pressure, controller.p_max), "log p/log p_max"),
-        )
-        if ckpt is not None and (stop is None or stop == "max_wall_time") and (
-            time.perf_counter() - last_ckpt >= checkpoint_interval or stop == "max_wall_time"
-        ):
-            e_arrays, e_attrs = engine.state()
-            arrays = dict(e_arrays)
-            arrays.update({f"history_{k}": v for k, v in history.as_arrays().items()})
-            attrs = {"fingerprint": fingerprint, "engine": e_attrs, "controller": controller.state(),
-                     "totals": totals, "wall_time": wall, "rng_state": rng.bit_generator.state,
-                     "phi_initial": phi_initial}
-            save_checkpoint(ckpt, controller.kind, arrays, attrs)
-            last_ckpt = time.perf_counter()
-        if callback is not None:
-            callback(totals["windows"], stats)
+        return stop
 
-    wall = wall_before + time.perf_counter() - wall0
-    phi_final = phi_nominal * engine.rho0**3
-    counters = dict(totals)
-    counters.update({"wall_time": wall, "stop_reason": stop, "phi_initial": phi_initial, "phi_final": phi_final,
-                     "resumed": resumed})
-    counters.update(controller.counters())
-    metadata = dict(packing.metadata)
-    metadata.pop("provenance", None)
-    metadata.update({
-        "algorithm": algorithm,
-        "seed": int(seed),
-        "parameters": dict(parameters, input_seed=packing.metadata.get("seed"),
-                           input_algorithm=packing.metadata.get("algorithm")),
-        "reduced_pressure": last_pressure,
-        "counters": counters,
-    })
-    result = Packing(engine.positions, engine.rho0 * engine.nominal, packing.box, metadata)
-    report = result.check(AUDIT_TOLERANCE)
-    if not report.ok:
-        raise SimulationError(f"{algorithm}: final audit failed, the result is discarded: {report}")
-    if ckpt is not None and stop != "max_wall_time" and ckpt.exists():
-        os.remove(ckpt)
-    progress.update(f"done: phi={phi_final:.6f} p={last_pressure:.4g} windows={totals['windows']} "
-                    f"collisions={totals['collisions']:,} wall={wall:.1f} s ({stop})", force=True)
-    return RunResult(packing=result, history=history.as_arrays(), counters=counters, wall_time=wall)
+    def report(self, progress, stop, wall_time) -> None:
+        p, phi, collisions = self.last_pressure, self.phi, self.totals["collisions"]
+        progress.update(
+            f"window {self.totals['windows']}: phi={phi:.6f} p={p:.4g} rate={self.history.last('rate'):.4g} "
+            f"collisions={collisions:,} ({collisions / max(wall_time, 1e-9):,.0f}/s)"
+            + (f" stop={stop}" if stop else ""),
+            fields={**self.controller.progress_fields(), "p": p, "φ": phi,
+                    "collisions/s": rate_of(collisions, wall_time)},
+            bar=(log_fraction(p, self.controller.p_max), "log p/log p_max"),
+        )
+
+    def callback(self) -> None:
+        if self.user_callback is not None:
+            self.user_callback(self.totals["windows"], self.last_stats)
+
+    @property
+    def steps(self) -> int:
+        return self.totals["windows"]
+
+    @property
+    def collisions(self) -> int:
+        return self.totals["collisions"]
+
+    @property
+    def phi_initial(self) -> float:
+        return self._phi_initial
+
+    @property
+    def phi(self) -> float:
+        return self.phi_nominal * self.engine.rho0**3
+
+    def extras(self):
+        return self.controller.extras(LSCounts(**{k: self.totals[k] for k in _TOTALS[2:]}))
+
+    def result(self, stats: RunStats) -> Packing:
+        metadata = dict(self.input.metadata)
+        metadata.pop("provenance", None)
+        metadata.update({
+            "algorithm": self.algorithm,
+            "seed": self.seed,
+            "parameters": dict(self.parameters, input_seed=self.input.metadata.get("seed"),
+                               input_algorithm=self.input.metadata.get("algorithm")),
+            "reduced_pressure": self.last_pressure,
+            "counters": stats.as_dict(),
+        })
+        engine = self.engine
+        result = Packing(engine.positions, engine.rho0 * engine.nominal, self.input.box, metadata)
+        report = result.check(AUDIT_TOLERANCE)
+        if not report.ok:
+            raise SimulationError(f"{self.algorithm}: final audit failed, the result is discarded: {report}")
+        return result
+
+
+def run_windows(packing: Packing, controller: Controller, options: RunOptions, **kwargs) -> RunResult:
+    """Drive LS windows under ``controller`` (the arguments of :class:`WindowRun`) with the run ``options``."""
+    run = WindowRun(packing, controller, **kwargs)
+    return drive(run, options, run.fingerprint(), callback=run.callback)
 
 
 def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options: dict[str, Any] | None) -> None:
@@ -537,8 +535,13 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
         Stop at the first window whose reduced pressure p = PV/(N k_B T) reaches p_max (> 1).
     seed : int
         Seed of the initial Maxwell–Boltzmann velocities; same input and seed give identical output.
-    target_phi, max_collisions, max_wall_time :
-        Optional further stops: packing fraction reached, total collisions, wall seconds.
+    target_phi, max_collisions :
+        Optional further stops: packing fraction reached, total collisions (resumed windows included).
+    max_wall_time, checkpoint, checkpoint_interval, progress_interval :
+        The run options (:class:`spherejam.engines.driver.RunOptions`): seconds of this call; the checkpoint
+        (resumed if it matches, saved every ``checkpoint_interval`` wall seconds at window ends, removed when the
+        run ends except after a ``max_wall_time`` stop, so that a later call continues); seconds between progress
+        lines.
     events_per_particle : int
         Window length in events (or collisions) per particle (20 in the paper).
     count_collisions_only : bool
@@ -546,10 +549,6 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
         reference code: collisions, re-predictions and neighbour-list updates). Near jamming they nearly agree.
     temperature : float
         Thermostat temperature T (0.2).
-    checkpoint : path or None
-        If given, the full state is saved there every ``checkpoint_interval`` wall seconds (at window ends) and a
-        run started with an existing matching checkpoint resumes from it. The file is removed when the run
-        finishes, except after a ``max_wall_time`` stop (so a later call can continue).
     callback : callable(window_index, WindowStats) or None
         Called after every window (e.g. for monitoring; an exception aborts the run, keeping the checkpoint).
     engine_options : dict or None
@@ -561,11 +560,13 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
     RunResult
         Packing with actual diameters (metadata ``algorithm="ls"``), per-window history (``window, phi, pressure,
         rate, collisions, events, duration, temperature, wall_time``; counts per window, wall time cumulative) and
-        counters (totals, ``stop_reason``, ``phi_initial``, ``phi_final``, ``wall_time``).
+        ``stats`` (:class:`~spherejam.engines.result.RunStats`: stop_reason "p_max", "target_phi",
+        "max_collisions" or "max_wall_time"; steps = windows; extras :class:`~spherejam.engines.result.LSCounts`).
     """
-    validate_common(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
-                    max_wall_time=max_wall_time, temperature=temperature, checkpoint_interval=checkpoint_interval,
-                    progress_interval=progress_interval, max_collisions=max_collisions)
+    validate_ls_options(packing, p_max=p_max, seed=seed, events_per_particle=events_per_particle,
+                        temperature=temperature, max_collisions=max_collisions)
+    options = RunOptions(max_wall_time=max_wall_time, checkpoint=checkpoint,
+                         checkpoint_interval=checkpoint_interval, progress_interval=progress_interval)
     require(_finite(rate) and rate >= 0, "rate", rate, "must be a finite number >= 0")
     require(target_phi is None or (_finite(target_phi) and 0 < target_phi < 1), "target_phi", target_phi,
             "must be None or in (0, 1)")
@@ -579,8 +580,7 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
         "events_per_particle": int(events_per_particle), "count_collisions_only": bool(count_collisions_only),
         "temperature": float(temperature),
     }
-    return drive(packing, Controller(rate, p_max), algorithm="ls", parameters=parameters, seed=seed,
-                 events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
-                 temperature=temperature, target_phi=target_phi, max_collisions=max_collisions,
-                 max_wall_time=max_wall_time, checkpoint=checkpoint, checkpoint_interval=checkpoint_interval,
-                 progress_interval=progress_interval, callback=callback, engine_options=engine_options)
+    return run_windows(packing, Controller(rate, p_max), options, algorithm="ls", parameters=parameters, seed=seed,
+                       events_per_particle=events_per_particle, count_collisions_only=count_collisions_only,
+                       temperature=temperature, target_phi=target_phi, max_collisions=max_collisions,
+                       engine_options=engine_options, callback=callback)

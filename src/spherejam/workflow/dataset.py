@@ -24,6 +24,8 @@ from ..core.atomic import atomic_output
 from ..core.errors import InputError, PackingFileError
 from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
+from ..core.validation import check_config
+from ..engines.result import RunStats, stats_from_metadata
 from .experiment import Experiment, GridRun, Run, config_hash
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
@@ -51,7 +53,9 @@ VARIABLES: dict[str, tuple[str, str]] = {
 COORDS: dict[str, tuple[str, str]] = {
     "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
     "sigma": ("relative standard deviation of the log-normal diameters", "1"),
-    "rate": ("compression rate gamma (LS: d rho/dt with m = kB = 1, T = 0.2; FB: per iteration)", "1"),
+    "rate": ("compression rate gamma; LS: d rho/dt, diameters D_i0 (rho0 + gamma t) with m = kB = 1, T = 0.2; "
+             "FB: dimensionless shrink of the outer diameter per iteration (a different quantity: compare rates "
+             "within one protocol only)", "1"),
     "inverse_rate": ("inverse compression rate 1/gamma", "1"),
     "replica": ("replica index", "1"),
     "seed": ("seed of the Poisson configuration", "1"),
@@ -66,22 +70,16 @@ COORDS: dict[str, tuple[str, str]] = {
 }
 
 
-#: MLS stop reasons that end the search by its own rules (anything else, e.g. a max_collisions cut, is incomplete).
-MLS_COMPLETED = ("final_rate", "final_rate_stalled", "jammed")
-
-
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
     """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
 
-    The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) first."""
-    from ..core.validation import check_config
-
+    The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) and makes
+    an :class:`Experiment` (the design's own checks) first."""
     check_config(config)
-    exp = Experiment(config)
+    Experiment(config)  # its constructor checks the design (the sigmas of the extra rates and of the grid)
     manifest = {"config": config, "config_hash": config_hash(config), "provenance": provenance()}
     with atomic_output(path, ".json") as tmp:
         Path(tmp).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
-    del exp  # constructing it validated the design
     return Path(path)
 
 
@@ -112,30 +110,39 @@ def _num(value) -> float:
     return x
 
 
-def _generation_scalars(a: dict[str, Any]) -> dict[str, float]:
-    c = a["counters"]
+def _stats(path: Path, a: dict[str, Any], algorithms: tuple[str, ...]) -> RunStats:
+    """The run summary of the packing file at ``path`` (attributes ``a``), made by one of ``algorithms``."""
+    if a.get("algorithm") not in algorithms:
+        raise PackingFileError(f"{path}: made by {a.get('algorithm')!r}, expected {' or '.join(algorithms)}")
+    return stats_from_metadata(a, str(path))
+
+
+def _generation_scalars(path: Path) -> dict[str, float]:
+    a = _attrs(path)
+    c = _stats(path, a, ("ls", "fb"))
     return {
         "phi": _num(a.get("phi")),
         "pressure": _num(a.get("reduced_pressure")),
-        "generation_collisions": _num(c.get("collisions")),
-        "generation_iterations": _num(c.get("iterations", c.get("windows"))),
-        "generation_wall_time": _num(c.get("wall_time")),
+        "generation_collisions": _num(c.collisions),
+        "generation_iterations": _num(c.steps),
+        "generation_wall_time": _num(c.wall_time),
     }
 
 
-def _mls_scalars(a: dict[str, Any], prefix: str = "") -> dict[str, float]:
-    c = a["counters"]
+def _mls_scalars(path: Path, prefix: str = "") -> dict[str, float]:
+    a = _attrs(path)
+    c = _stats(path, a, ("mls",))
     p = prefix or "mls_"
     out = {
-        f"{p}collisions": _num(c.get("collisions")),
-        f"{p}stages": _num(c.get("stages")),
-        f"{p}wall_time": _num(c.get("wall_time")),
-        f"{p}completed": float(c.get("stop_reason", "final_rate") in MLS_COMPLETED),
+        f"{p}collisions": _num(c.collisions),
+        f"{p}stages": _num(c.extras.stages),
+        f"{p}wall_time": _num(c.wall_time),
+        f"{p}completed": float(c.completed),
     }
     if not prefix:
         out.update(
-            phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.get("windows")),
-            mls_stalled_stages=_num(c.get("stalled_stages", 0)),
+            phi_J=_num(a.get("phi")), pressure_J=_num(a.get("reduced_pressure")), mls_windows=_num(c.steps),
+            mls_stalled_stages=_num(c.extras.stalled_stages),
         )
     else:
         out[f"{p}phi_J"] = _num(a.get("phi"))
@@ -157,8 +164,8 @@ def collect_runs(exp: Experiment) -> tuple[list[Run], list[dict[str, float]]]:
     rows = []
     runs = exp.runs()
     for run in runs:
-        row = _generation_scalars(_attrs(exp.path(run, "initial")))
-        row.update(_mls_scalars(_attrs(exp.path(run, "jammed"))))
+        row = _generation_scalars(exp.path(run, "initial"))
+        row.update(_mls_scalars(exp.path(run, "jammed")))
         if exp.config.get("analysis", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "structure"), ""))
         if exp.config.get("calippso", {}).get("enabled", True):
@@ -171,8 +178,7 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
     rows = []
     runs = exp.grid_runs()
     for g in runs:
-        a = _attrs(exp.grid_path(g))
-        row = _mls_scalars(a, prefix="grid_")
+        row = _mls_scalars(exp.grid_path(g), prefix="grid_")
         row["grid_phi"] = _num(_attrs(exp.path(g.source, "initial")).get("phi"))
         rows.append(row)
     return runs, rows
@@ -240,7 +246,7 @@ DISTRIBUTION_VARIABLES = {
     "extended_force_pdf": ("probability density of extended contact forces (no buckler contacts)", "1"),
     "gap_pdf": ("probability density of gaps h = r/D - 1 between non-contacting near neighbours", "1"),
     "force_exponent": ("small-force exponent theta_e of the pooled extended forces (mean field 0.42311)", "1"),
-    "gap_exponent": ("small-gap exponent gamma of the pooled gaps (mean field 0.41269)", "1"),
+    "gap_exponent": ("small-gap exponent gamma_h of the pooled gaps, g(h) ~ h^-gamma_h (mean field 0.41269)", "1"),
     "n_forces": ("contact forces pooled", "1"),
     "n_gaps": ("gaps pooled", "1"),
     "dist_sigma": ("sigma of the pooled distributions", "1"),
@@ -285,8 +291,6 @@ def build_dataset(manifest_path: str | os.PathLike):
     if not isinstance(manifest, dict) or not isinstance(manifest.get("config"), dict) or "config_hash" not in manifest:
         raise PackingFileError(f"{manifest_path}: not an experiment manifest (needs 'config' and 'config_hash'; "
                                "write one with `spherejam manifest`)")
-    from ..core.validation import check_config
-
     try:
         config = check_config(manifest["config"])
     except InputError as exc:

@@ -51,8 +51,8 @@ HORIZON = 1  #: the next event lies beyond the time horizon; every particle is s
 OVERFLOW = 2  #: a neighbour list is full; enlarge the capacity and call again (state untouched)
 INCONSISTENT = 3  #: an event time went backwards or became NaN
 
-#: Children per node of the event heap.
-HEAP_ARITY = 4
+# The event heap is 4-ary (children of node k: 4k+1 ... 4k+4, parent (k-1) >> 2), hard-wired in the unrolled
+# minimum of _sift_down.
 
 #: Indices into the integer counter array of a window.
 C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
