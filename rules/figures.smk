@@ -10,14 +10,14 @@ rule figure:
     input:
         PATHS.dataset,
     output:
-        png=report(PATHS.figure("{name}", "png"), caption="../report/figure.rst", category="Figures"),
-        pdf=PATHS.figure("{name}", "pdf"),
+        png=report(PATHS.figure("png"), caption="../report/figure.rst", category="Figures"),
+        pdf=PATHS.figure("pdf"),
     wildcard_constraints:
         name="|".join(FIGURE_NAMES),
     params:
         stem=lambda w, output: os.path.splitext(output.png)[0],
     log:
-        PATHS.experiment_log("figures/{name}"),
+        PATHS.figure_log(),
     localrule: True
     shell:
         "spherejam figure {wildcards.name} {input} -o {params.stem} > {log} 2>&1"
@@ -29,12 +29,12 @@ rule render_fig1:
     input:
         PATHS.packing("jammed", EXP.figure1_run().key),
     output:
-        png=report(PATHS.figure("fig1", "png"), caption="../report/fig1.rst", category="Figures"),
-        pdf=PATHS.figure("fig1", "pdf"),
+        png=report(PATHS.figure("png", "fig1"), caption="../report/fig1.rst", category="Figures"),
+        pdf=PATHS.figure("pdf", "fig1"),
     params:
         sigma=EXP.figure1_run().sigma,
     log:
-        PATHS.experiment_log("figures/fig1"),
+        PATHS.figure_log("fig1"),
     localrule: True
     shell:
         "spherejam render {input} --sigma {params.sigma} -o {output.png} -o {output.pdf} > {log} 2>&1"

@@ -193,8 +193,11 @@ class Paths:
         return self._job("checkpoints", job, key, ".h5")
 
     def experiment_log(self, name: str) -> str:
-        """Log of a job of the whole experiment (``dataset``, ``tables``, ``figures/fig2``, ...)."""
+        """Log of a job of the whole experiment (``experiment_manifest``, ``dataset``, ``tables``)."""
         return self._file("logs", f"{name}.log")
+
+    def figure_log(self, name: str = "{name}") -> str:
+        return self._file("logs", "figures", f"{name}.log")
 
     @property
     def manifest(self) -> str:
@@ -211,12 +214,12 @@ class Paths:
         """Tables 2-4 in each of ``formats``."""
         return [self.table(name, f) for name in TABLE_NAMES for f in formats]
 
-    def figure(self, name: str, fmt: str) -> str:
+    def figure(self, fmt: str, name: str = "{name}") -> str:
         return self._file("figures", f"{name}.{fmt}")
 
     def figures(self, names=FIGURE_NAMES) -> list[str]:
         """The figures ``names`` in every format."""
-        return [self.figure(name, f) for name in names for f in FIGURE_FORMATS]
+        return [self.figure(f, name) for name in names for f in FIGURE_FORMATS]
 
 
 class Experiment:
