@@ -343,9 +343,6 @@ class Experiment:
         return "" if phi is None else f"--phi-nominal {phi}"
 
     # --- paths -----------------------------------------------------------------------------------------------------
-    def packing_dir(self, run: Run) -> Path:
-        return self.results / "packings" / run.key
-
     def path(self, run: Run, stage: str) -> Path:
         """File of a run: stage is a key of :data:`PACKING_FILES` (``poisson``, ``initial`` (LS/FB output),
         ``jammed`` (MLS), ``structure`` (analysis JSON of the jammed packing), ``calippso`` (certification JSON),
