@@ -207,19 +207,19 @@ class Paths:
     def dataset(self) -> str:
         return self._file("dataset.nc")
 
-    def table(self, name: str, fmt: str) -> str:
-        return self._file("tables", f"{name}.{fmt}")
+    def table(self, name: str, ext: str) -> str:
+        return self._file("tables", f"{name}.{ext}")
 
     def tables(self, formats=TABLE_FORMATS) -> list[str]:
         """Tables 2-4 in each of ``formats``."""
-        return [self.table(name, f) for name in TABLE_NAMES for f in formats]
+        return [self.table(name, ext) for name in TABLE_NAMES for ext in formats]
 
-    def figure(self, fmt: str, name: str = "{name}") -> str:
-        return self._file("figures", f"{name}.{fmt}")
+    def figure(self, ext: str, name: str = "{name}") -> str:
+        return self._file("figures", f"{name}.{ext}")
 
     def figures(self, names=FIGURE_NAMES) -> list[str]:
         """The figures ``names`` in every format."""
-        return [self.figure(f, name) for name in names for f in FIGURE_FORMATS]
+        return [self.figure(ext, name) for name in names for ext in FIGURE_FORMATS]
 
 
 class Experiment:
