@@ -30,7 +30,7 @@ include: "rules/figures.smk"
 rule all:
     default_target: True
     input:
-        DATASET,
-        TABLES,
-        FIGURES,
-        FIG1,
+        PATHS.dataset,
+        PATHS.tables(),
+        PATHS.figures(),
+        PATHS.figures(["fig1"]) if config["figures"]["render_fig1"] else [],

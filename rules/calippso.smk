@@ -1,23 +1,23 @@
 # CALiPPSO certification of every MLS result: LP jamming with contact forces and a proof of jamming.
 
 
-rule certify:
+rule calippso:
     conda:
         "../envs/spherejam.yaml"
     input:
-        f"{PACKING}/jammed.h5",
+        PATHS.packing("jammed"),
     output:
-        packing=f"{PACKING}/calippso.h5",
-        summary=f"{PACKING}/calippso.json",
+        packing=PATHS.packing("calippso_packing"),
+        summary=PATHS.packing("calippso"),
     params:
         # at N = 1e4 one certification takes tens of minutes: a job cut at its time limit resumes from here
-        checkpoint=f"{R}/checkpoints/calippso/{RUN}.h5",
+        checkpoint=PATHS.checkpoint("calippso"),
     log:
-        f"{R}/logs/calippso/{RUN}.log",
+        PATHS.log("calippso"),
     benchmark:
-        f"{R}/benchmarks/calippso/{RUN}.tsv"
+        PATHS.benchmark("calippso")
     resources:
-        **resources_for("calippso"),
+        **job_resources("calippso", EXP.n),
     group:
         "analysis"
     shell:

@@ -5,11 +5,11 @@ rule experiment_manifest:
     conda:
         "../envs/spherejam.yaml"
     output:
-        f"{R}/experiment.json",
+        PATHS.manifest,
     params:
         config=json.dumps(config, sort_keys=True),
     log:
-        f"{R}/logs/experiment_manifest.log",
+        PATHS.experiment_log("experiment_manifest"),
     localrule: True
     shell:
         "spherejam manifest --config-json {params.config:q} -o {output} > {log} 2>&1"
@@ -19,12 +19,12 @@ rule dataset:
     conda:
         "../envs/spherejam.yaml"
     input:
-        manifest=f"{R}/experiment.json",
-        runs=dataset_inputs,
+        manifest=PATHS.manifest,
+        runs=EXP.dataset_inputs(),
     output:
-        DATASET,
+        PATHS.dataset,
     log:
-        f"{R}/logs/dataset.log",
+        PATHS.experiment_log("dataset"),
     localrule: True
     shell:
         "spherejam dataset {input.manifest} -o {output} > {log} 2>&1"

@@ -1,46 +1,48 @@
 # Packing generation for every (sigma, gamma): Lubachevsky-Stillinger (Fig. 2a) and force-biased (Fig. 2c).
 
 
-rule generate_ls:
+rule ls:
     conda:
         "../envs/spherejam.yaml"
     input:
-        f"{R}/packings/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}/poisson.h5",
+        PATHS.packing("poisson"),
     output:
-        f"{R}/packings/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}/initial.h5",
+        PATHS.packing("initial"),
+    wildcard_constraints:
+        protocol="ls",
     params:
-        seed=lambda w: parse_run("ls", w.sigma, w.rate, w.replica).seed(EXP.master_seed, "ls"),
+        seed=EXP.run_seed("ls"),
         p_max=config["ls"]["p_max"],
-        checkpoint=f"{R}/checkpoints/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}.h5",
+        checkpoint=PATHS.checkpoint("ls"),
     log:
-        f"{R}/logs/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}.log",
+        PATHS.log("ls"),
     benchmark:
-        f"{R}/benchmarks/ls/sigma{{sigma}}/rate{{rate}}/r{{replica}}.tsv"
+        PATHS.benchmark("ls")
     resources:
-        **resources_for("ls"),
+        **job_resources("ls", EXP.n),
     shell:
         "spherejam ls {input} --rate {wildcards.rate} --p-max {params.p_max} --seed {params.seed}"
         " --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
 
 
-rule generate_fb:
+rule fb:
     conda:
         "../envs/spherejam.yaml"
     input:
-        f"{R}/packings/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}/poisson.h5",
+        PATHS.packing("poisson"),
     output:
-        f"{R}/packings/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}/initial.h5",
+        PATHS.packing("initial"),
+    wildcard_constraints:
+        protocol="fb",
     params:
-        phi_nominal=(
-            "" if config["fb"].get("phi_nominal") is None else f"--phi-nominal {config['fb']['phi_nominal']}"
-        ),
-        checkpoint=f"{R}/checkpoints/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}.h5",
+        phi_nominal=EXP.fb_options(),
+        checkpoint=PATHS.checkpoint("fb"),
     log:
-        f"{R}/logs/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}.log",
+        PATHS.log("fb"),
     benchmark:
-        f"{R}/benchmarks/fb/sigma{{sigma}}/rate{{rate}}/r{{replica}}.tsv"
+        PATHS.benchmark("fb")
     resources:
-        **resources_for("fb"),
+        **job_resources("fb", EXP.n),
     group:
         "generation"
     shell:

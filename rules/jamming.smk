@@ -1,34 +1,27 @@
-# Closest jamming (MLS) of every generated packing: Figs. 2b and 2d.
-
-MLS = config["mls"]
+# The closest-jamming search (MLS, the paper's modified LS) of every generated packing: Figs. 2b and 2d.
 
 
-rule jam:
+rule mls:
     conda:
         "../envs/spherejam.yaml"
     input:
-        f"{PACKING}/initial.h5",
+        PATHS.packing("initial"),
     output:
-        f"{PACKING}/jammed.h5",
+        PATHS.packing("jammed"),
     params:
-        seed=run_seed("mls"),
-        checkpoint=f"{R}/checkpoints/mls/{RUN}.h5",
-        initial_rate=MLS["initial_rate"],
-        decrease_factor=MLS["decrease_factor"],
-        final_rate=MLS["final_rate"],
-        p_max=MLS["p_max"],
-        max_eq=MLS["max_equilibration_windows"],
-        options=mls_options(),
+        seed=EXP.run_seed("mls"),
+        checkpoint=PATHS.checkpoint("mls"),
+        initial_rate=EXP.mls["initial_rate"],
+        decrease_factor=EXP.mls["decrease_factor"],
+        final_rate=EXP.mls["final_rate"],
+        p_max=EXP.mls["p_max"],
+        max_eq=EXP.mls["max_equilibration_windows"],
+        options=EXP.mls_options(),
     log:
-        f"{R}/logs/mls/{RUN}.log",
+        PATHS.log("mls"),
     benchmark:
-        f"{R}/benchmarks/mls/{RUN}.tsv"
+        PATHS.benchmark("mls")
     resources:
-        **resources_for(
-            "mls",
-            lambda w: {k: MLS[k] for k in ("initial_rate", "decrease_factor", "final_rate")},
-        ),
+        **job_resources("mls", EXP.n, lambda w: EXP.mls_ladder),
     shell:
-        "spherejam mls {input} --initial-rate {params.initial_rate} --decrease-factor {params.decrease_factor}"
-        " --final-rate {params.final_rate} --p-max {params.p_max} --max-equilibration-windows {params.max_eq}"
-        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        mls_command("{params.initial_rate}", "{params.decrease_factor}", "{params.final_rate}")

@@ -5,15 +5,15 @@ rule seed:
     conda:
         "../envs/spherejam.yaml"
     output:
-        f"{PACKING}/poisson.h5",
+        PATHS.packing("poisson"),
     params:
         n=EXP.n,
         phi_nominal=config["phi_nominal"],
-        seed=run_seed("poisson"),
+        seed=EXP.run_seed("poisson"),
     log:
-        f"{R}/logs/seed/{RUN}.log",
+        PATHS.log("seed"),
     resources:
-        **resources_for("seed"),
+        **job_resources("seed", EXP.n),
     group:
         "generation"
     shell:

@@ -5,13 +5,13 @@ rule analyze:
     conda:
         "../envs/spherejam.yaml"
     input:
-        f"{PACKING}/jammed.h5",
+        PATHS.packing("jammed"),
     output:
-        f"{PACKING}/structure.json",
+        PATHS.packing("structure"),
     log:
-        f"{R}/logs/structure/{RUN}.log",
+        PATHS.log("analyze"),
     resources:
-        **resources_for("analyze"),
+        **job_resources("analyze", EXP.n),
     group:
         "analysis"
     shell:

@@ -6,20 +6,18 @@ rule tables:
     conda:
         "../envs/spherejam.yaml"
     input:
-        DATASET,
+        PATHS.dataset,
     output:
+        report(PATHS.tables(["csv"]), caption="../report/tables.rst", category="Tables"),
+        PATHS.tables(["md", "tex"]),
         report(
-            expand(f"{R}/tables/{{name}}.csv", name=TABLE_NAMES),
-            caption="../report/tables.rst",
-            category="Tables",
+            PATHS.table("comparison", "csv"), caption="../report/comparison.rst", category="Comparison with the paper"
         ),
-        expand(f"{R}/tables/{{name}}.{{ext}}", name=TABLE_NAMES, ext=["md", "tex"]),
-        report(f"{R}/tables/comparison.csv", caption="../report/comparison.rst", category="Comparison with the paper"),
-        f"{R}/tables/comparison.md",
+        PATHS.table("comparison", "md"),
     params:
         outdir=lambda w, output: os.path.dirname(output[0]),
     log:
-        f"{R}/logs/tables.log",
+        PATHS.experiment_log("tables"),
     localrule: True
     shell:
         "spherejam tables {input} --outdir {params.outdir} > {log} 2>&1"

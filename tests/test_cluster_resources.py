@@ -121,15 +121,23 @@ def test_memory_grows_with_n_and_attempt():
     assert cr.mem_mb("ls", 10000, attempt=2) == 2 * cr.mem_mb("ls", 10000)
 
 
-def test_works_as_snakemake_resource_callables():
-    # The rules pass lambdas (wildcards, attempt) -> int; wildcard values arrive as strings.
-    class W:
-        rate = "0.01"
+def test_job_resources_are_snakemake_resource_callables():
+    """job_resources gives the rules' resources: (wildcards, attempt) -> int, wildcard values arriving as text; an
+    LS job's time from its rate wildcard, an MLS job's from its ladder."""
+    from types import SimpleNamespace
 
-    def runtime(wildcards, attempt):
-        return cr.runtime_minutes("ls", 256, rate=float(wildcards.rate), attempt=attempt)
-    assert runtime(W(), 1) < runtime(W(), 2)
-    assert cr.runtime_minutes("mls", 256, rate=0.01, final_rate=1e-4) > 0  # a generation rate is ignored there
+    w = SimpleNamespace(rate="0.01")
+    ls = cr.job_resources("ls", 256)
+    assert set(ls) == {"runtime", "mem_mb", "cpus_per_task"} and ls["cpus_per_task"] == 1
+    assert ls["runtime"](w, 1) == cr.runtime_minutes("ls", 256, 0.01) < ls["runtime"](w, 2)
+    assert ls["mem_mb"](w, 2) == cr.mem_mb("ls", 256, 2)
+    n = 10000
+    ladder = {"initial_rate": 10.0, "decrease_factor": 2.0, "final_rate": 1e-4}
+    paper = cr.job_resources("mls", n, lambda wildcards: ladder)["runtime"](w, 1)
+    short = cr.job_resources("mls", n, lambda wildcards: {**ladder, "final_rate": 1e-2})["runtime"](w, 1)
+    assert paper == cr.runtime_minutes("mls", n, **ladder) > short  # the rate wildcard is not an MLS parameter
+    with pytest.raises(InputError, match="^stage="):
+        cr.job_resources("jam", 256)
 
 
 @pytest.mark.parametrize(
@@ -156,7 +164,7 @@ def test_bad_input_names_the_field(call, field):
 
 def test_module_imports_nothing_heavy():
     # Snakemake evaluates these functions for every job while building the DAG; only the sizing helpers
-    # (plan, main) import more, inside the functions.
+    # (plan, load_configs) import more, inside the functions.
     tree = ast.parse(Path(cr.__file__).read_text())
     imported = set()
     for node in tree.body:
@@ -179,7 +187,7 @@ def test_plan_counts_the_workflows_jobs():
     runs = exp.runs()
     assert table["seed"]["jobs"] == table["mls"]["jobs"] == len(runs)
     assert table["ls"]["jobs"] == len(exp.runs("ls")) and table["fb"]["jobs"] == len(exp.runs("fb"))
-    assert table.get("mls-grid", {"jobs": 0})["jobs"] == len(exp.grid_runs())
+    assert table.get("mls_grid", {"jobs": 0})["jobs"] == len(exp.grid_runs())
     for row in table.values():
         assert row["requested_hours"] >= row["cpu_hours"] > 0
 
@@ -191,18 +199,23 @@ def test_load_configs_merges_later_files_over_earlier_recursively(tmp_path):
     assert merged == {"n": 10000, "mls": {"final_rate": 1e-4, "max_collisions_per_particle": None}}
 
 
-def test_cost_command_prints_the_module_table(tmp_path, capsys):
+def test_cost_command_prints_the_plan(tmp_path, capsys):
+    """`spherejam cost` (the one way to print the cost model) prints one row per stage of :func:`plan`, named as
+    the workflow's rules, and the total."""
     from spherejam.cli import main
 
     root = Path(__file__).resolve().parents[1] / "config"
     configs = [str(root / "config.yaml"), str(root / "paper.yaml")]
     assert main(["cost", *configs]) == 0
     table = capsys.readouterr().out
-    assert cr.main(configs) == 0  # `python -m spherejam.workflow.cost_model` prints the same
-    assert capsys.readouterr().out == table
     plan = cr.plan(cr.load_configs(*configs))
+    rows = {line.split()[0]: line.split()[1:] for line in table.splitlines()[2:]}
+    assert set(rows) == set(plan) | {"total"}
+    assert set(plan) == {"seed", "ls", "fb", "mls", "mls_grid", "analyze", "calippso"}
+    for stage, row in plan.items():
+        assert rows[stage] == [str(row["jobs"]), f"{row['cpu_hours']:.1f}", f"{row['requested_hours']:.1f}"]
     total_jobs = sum(row["jobs"] for row in plan.values())
-    assert table.startswith("N = 10000") and table.splitlines()[-1].split()[:2] == ["total", str(total_jobs)]
+    assert table.startswith("N = 10000") and rows["total"][0] == str(total_jobs)
     (tmp_path / "bad.yaml").write_text("n: [\n")
     (tmp_path / "list.yaml").write_text("- 1\n")
     for bad, needle in (("missing.yaml", "no such config file"), ("bad.yaml", "not valid YAML"),

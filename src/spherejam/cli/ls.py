@@ -1,4 +1,4 @@
-"""``spherejam ls | mls``: Lubachevsky–Stillinger compression and the closest-jamming (MLS) search."""
+"""``spherejam ls``: Lubachevsky–Stillinger compression; its options and output are shared by ``spherejam mls``."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from ..core.validation import (
     MAX_COLLISIONS,
     SECONDS,
     UNIT_OPEN,
-    check_mls,
 )
 from . import seed_int
 
@@ -29,7 +28,8 @@ def _ls_rate(text: str) -> float:
     return LS_RATE.arg(text)
 
 
-def _common(p) -> None:
+def add_event_driven_options(p) -> None:
+    """The options of both event-driven commands, ``ls`` and ``mls`` (the paper's modified LS)."""
     p.add_argument("input", type=Path, help="start packing (.h5): Poisson, LS, FB, ...")
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--p-max", type=FIELDS["ls.p_max"].arg, default=1e12,
@@ -39,7 +39,7 @@ def _common(p) -> None:
                    help="window length in events per particle, 1 ... 10^6 (default 20)")
     p.add_argument("--count-collisions", action="store_true",
                    help="count only collisions towards the window length (default: all events, as the reference)")
-    p.add_argument("--max-wall-time", type=SECONDS.arg, default=None, help="stop after this many seconds (> 0)")
+    p.add_argument("--max-wall-time", type=SECONDS.arg, default=None, help="stop after this many seconds of this call (> 0); the checkpoint is kept, so a rerun continues")
     p.add_argument("--checkpoint", type=output_file, default=None,
                    help="checkpoint file: saved periodically, resumed from if present, removed when done")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
@@ -50,7 +50,7 @@ def _common(p) -> None:
 
 def register(sub) -> None:
     p = sub.add_parser("ls", help="compress with the Lubachevsky-Stillinger algorithm until p >= p_max")
-    _common(p)
+    add_event_driven_options(p)
     p.add_argument("--rate", type=_ls_rate, required=True,
                    help="compression rate gamma = d rho/dt: 1e-8 ... 1e3, or 0 with a stop option")
     p.add_argument("--target-phi", type=UNIT_OPEN.arg, default=None, help="stop at this packing fraction")
@@ -58,28 +58,9 @@ def register(sub) -> None:
                    help="stop after this many collisions")
     p.set_defaults(func=_ls)
 
-    p = sub.add_parser("mls", help="closest jammed configuration (modified LS search of the paper)")
-    _common(p)
-    p.add_argument("--initial-rate", type=FIELDS["mls.initial_rate"].arg, default=10.0,
-                   help="first compression rate, 1e-8 ... 1e3 (default 10)")
-    p.add_argument("--decrease-factor", type=FIELDS["mls.decrease_factor"].arg, default=2.0,
-                   help="rate divisor per stage, 1 < f <= 100 (default 2)")
-    p.add_argument("--final-rate", type=FIELDS["mls.final_rate"].arg, default=1e-4,
-                   help="termination rate, <= the initial rate (default 1e-4)")
-    p.add_argument("--max-equilibration-windows", type=FIELDS["mls.max_equilibration_windows"].arg, default=50,
-                   help="zero-rate windows with p >= p_max that mean 'jammed' (default 50)")
-    stall = p.add_mutually_exclusive_group()
-    stall.add_argument("--stall-windows", type=FIELDS["mls.stall_windows"].arg, default=None,
-                       help="compression windows with p >= p_max/10 flat within 10%% that end a stage as if p_max "
-                            "were reached (double-precision floor; default 1000)")
-    stall.add_argument("--no-stall-rule", action="store_true",
-                       help="the paper's rule exactly: a stage ends only at p >= p_max")
-    p.add_argument("--max-collisions-per-particle", type=FIELDS["mls.max_collisions_per_particle"].arg, default=None,
-                   help="cut the search after this many collisions per particle (deterministic; default: no cut)")
-    p.set_defaults(func=_mls)
 
-
-def _options(args) -> dict:
+def engine_options(args) -> dict:
+    """The engine keywords of the shared options (for ``run_ls`` and ``find_closest_jamming`` alike)."""
     return {
         "p_max": args.p_max, "seed": args.seed, "events_per_particle": args.events_per_particle,
         "count_collisions_only": args.count_collisions, "max_wall_time": args.max_wall_time,
@@ -88,11 +69,12 @@ def _options(args) -> dict:
     }
 
 
-def _check_paths(args) -> None:
+def check_paths(args) -> None:
     check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
 
 
-def _finish(args, result, label: str) -> int:
+def finish(args, result, label: str) -> int:
+    """Write the result packing (with its history) and print its one-line summary."""
     from ..core.packing_io import write_packing
 
     write_packing(args.output, result.packing, history=result.history)
@@ -108,27 +90,8 @@ def _ls(args) -> int:
 
     if args.rate == 0 and args.target_phi is None and args.max_collisions is None and args.max_wall_time is None:
         raise InputError("--rate=0: never reaches p_max; give --max-collisions, --target-phi or --max-wall-time")
-    _check_paths(args)
+    check_paths(args)
     packing = read_packing(args.input)
     result = run_ls(packing, args.rate, target_phi=args.target_phi, max_collisions=args.max_collisions,
-                    **_options(args))
-    return _finish(args, result, "LS")
-
-
-def _mls(args) -> int:
-    from ..core.packing_io import read_packing
-    from ..engines.closest_jamming import DEFAULT_STALL_WINDOWS, find_closest_jamming
-
-    check_mls(args.initial_rate, args.decrease_factor, args.final_rate,
-              ("--initial-rate", "--decrease-factor", "--final-rate"))
-    _check_paths(args)
-    packing = read_packing(args.input)
-    max_collisions = None
-    if args.max_collisions_per_particle is not None:
-        max_collisions = max(1, int(round(args.max_collisions_per_particle * packing.n)))
-    result = find_closest_jamming(
-        packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,
-        max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions,
-        stall_windows=None if args.no_stall_rule else (args.stall_windows or DEFAULT_STALL_WINDOWS), **_options(args),
-    )
-    return _finish(args, result, f"MLS stages={result.stats.extras.stages}")
+                    **engine_options(args))
+    return finish(args, result, "LS")

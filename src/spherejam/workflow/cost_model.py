@@ -1,8 +1,9 @@
 """Cluster resources of one workflow job: SLURM time limit, memory and cores from the protocol, N and the rates.
 
-The workflow's rules call these functions from their ``resources:`` (e.g. ``runtime=lambda w, attempt:
-runtime_minutes("ls", n, rate=float(w.rate), attempt=attempt)``), so they must stay cheap and import nothing heavy
-(no numpy, no numba): Snakemake evaluates them for every job when it builds the DAG.
+The workflow's rules take their ``resources:`` from :func:`job_resources` (``**job_resources("ls", EXP.n)``), so
+these functions must stay cheap and import nothing heavy (no numpy, no numba): Snakemake evaluates them for every
+job when it builds the DAG. The stages are the rules' names; ``spherejam cost CONFIG`` prints a whole config's
+jobs and hours per stage (:func:`plan`).
 
 Cost model (expected CPU seconds of one job = start-up + work / speed), calibrated on one core of the 2-core
 development machine (AMD EPYC VM; figures in docs/cluster.md and reference-benchmark.md):
@@ -237,6 +238,22 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
     )
 
 
+def job_resources(stage: str, n: int, ladder=None) -> dict:
+    """The ``resources:`` of a workflow rule: time limit and memory as functions of a job's wildcards and attempt,
+    and its cores. ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
+    ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard."""
+    _check_stage(stage)
+
+    def runtime(wildcards, attempt):
+        rate = float(wildcards.rate) if stage in ("ls", "fb") else None
+        return runtime_minutes(stage, n, rate, attempt, **(ladder(wildcards) if ladder else {}))
+
+    def memory(wildcards, attempt):
+        return mem_mb(stage, n, attempt)
+
+    return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, n)}
+
+
 def plan(config: dict) -> dict[str, dict[str, float]]:
     """Jobs, expected CPU hours and requested (time-limit) hours per stage of a whole workflow config.
 
@@ -258,11 +275,11 @@ def plan(config: dict) -> dict[str, dict[str, float]]:
         if config.get("calippso", {}).get("enabled", False):
             jobs.append(("calippso", None, {}))
     for g in exp.grid_runs():
-        jobs.append(("mls-grid", None, {"initial_rate": g.initial_rate, "decrease_factor": g.decrease_factor,
+        jobs.append(("mls_grid", None, {"initial_rate": g.initial_rate, "decrease_factor": g.decrease_factor,
                                         "final_rate": g.final_rate}))
     table: dict[str, dict[str, float]] = {}
     for label, rate, kw in jobs:
-        stage = "mls" if label == "mls-grid" else label
+        stage = "mls" if label == "mls_grid" else label
         row = table.setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
         row["jobs"] += 1
         row["cpu_hours"] += cpu_seconds(stage, exp.n, rate, **kw) / 3600.0
@@ -270,20 +287,8 @@ def plan(config: dict) -> dict[str, dict[str, float]]:
     return table
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``python -m spherejam.workflow.cost_model CONFIG.yaml [MORE.yaml]``: print the cost of a workflow config."""
-    import argparse
-
-    ap = argparse.ArgumentParser(description="Expected cost of a workflow config (later files override earlier).")
-    ap.add_argument("configs", nargs="+",
-                    help="a config file, e.g. config/paper.yaml (several: later ones override earlier ones)")
-    args = ap.parse_args(argv)
-    print_plan(load_configs(*args.configs))
-    return 0
-
-
 def print_plan(config: dict) -> None:
-    """Print :func:`plan` of ``config`` as a table (``spherejam cost`` and this module's entry point)."""
+    """Print :func:`plan` of ``config`` as a table (``spherejam cost``)."""
     table = plan(config)
     print(f"N = {config['n']}; first attempts; expected = model CPU time, requested = sum of SLURM time limits")
     print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
@@ -313,6 +318,3 @@ def _merge(base: dict, update: dict) -> None:
         else:
             base[key] = value
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

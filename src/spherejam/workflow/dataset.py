@@ -208,7 +208,7 @@ def collect_distributions(exp: Experiment) -> dict[str, tuple]:
         for run in exp.runs():
             if run.sigma != sigma:
                 continue
-            c = read_group(exp.packing_dir(run) / "calippso.h5", "contacts")
+            c = read_group(exp.path(run, "calippso_packing"), "contacts")
             if c:
                 forces.append(c["forces"])
                 extended.append(c["forces"][c["extended"].astype(bool)])

@@ -1,10 +1,20 @@
 """The experiment design: from a validated config to the list of packings, their seeds and file paths.
 
-Both the Snakefile (to define its targets) and the dataset builder (to know which files belong to the experiment)
-use this module, so the two can never disagree. It has no Snakemake dependency.
+Both the Snakefile (to define its targets, inputs, seeds and command-line arguments) and the dataset builder (to know
+which files belong to the experiment) use this module, so the two can never disagree: the rules in ``rules/`` spell
+no path, seed or config-derived argument themselves. It has no Snakemake dependency; the rules hand their
+``wildcards`` (any object with the wildcard names as attributes) to :meth:`Run.from_wildcards` and friends.
 
 A config (see ``config/schema.yaml``) names the spheres per packing, the polydispersities sigma, the LS and FB
 compression-rate grids gamma, the number of replicas, the MLS parameters, and the parameter-validation grid.
+
+Files below the results folder ``<results>``:
+
+* ``packings/<run key>/{poisson,initial,jammed}.h5``, ``structure.json``, ``calippso.json``, ``calippso.h5``: one
+  packing's stages (:data:`PACKING_FILES`), run key ``ls/sigma0.1/rate0.5/r0`` (:data:`RUN_KEY`);
+* ``validation/<grid key>.h5``: the MLS output of one validation-grid run (:data:`GRID_KEY`);
+* ``logs/``, ``benchmarks/``, ``checkpoints/``: per job, in the folder of its kind (:data:`JOB_FOLDERS`);
+* ``experiment.json``, ``dataset.nc``, ``tables/``, ``figures/``: the experiment as a whole.
 """
 
 from __future__ import annotations
@@ -12,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-from collections.abc import Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,6 +30,34 @@ from typing import Any
 from ..core.errors import InputError
 
 PROTOCOLS = ("ls", "fb")
+
+#: Key of one generated packing, the folder of its files below ``packings/``; braces are the wildcards of the rules.
+RUN_KEY = "{protocol}/sigma{sigma}/rate{rate}/r{replica}"
+#: Key of one validation-grid run: the LS packing it re-jams, then its MLS ladder (decrease factor f, initial and
+#: final rate).
+GRID_KEY = RUN_KEY + "/f{factor}_g{g0}_gf{gf}"
+_NUMBER = r"[0-9][0-9.e+-]*"
+#: What each wildcard of the keys may match (the workflow's global ``wildcard_constraints``).
+WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "sigma": _NUMBER, "rate": _NUMBER, "replica": r"\d+",
+                        "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
+
+#: The files of one packing below ``packings/<run key>/``, by stage: the Poisson start, the LS or FB output, the MLS
+#: output, its structure analysis, CALiPPSO's summary and CALiPPSO's packing (with its contacts and forces).
+PACKING_FILES = {"poisson": "poisson.h5", "initial": "initial.h5", "jammed": "jammed.h5",
+                 "structure": "structure.json", "calippso": "calippso.json", "calippso_packing": "calippso.h5"}
+
+#: Folder and key of each per-packing job's log, benchmark and checkpoint below ``logs/``, ``benchmarks/`` and
+#: ``checkpoints/``. The job names are the rules' and the cost model's stages; LS and FB jobs are filed by protocol
+#: (``logs/ls/sigma0.1/rate0.5/r0.log``).
+JOB_FOLDERS = {"seed": ("seed", RUN_KEY), "ls": ("", RUN_KEY), "fb": ("", RUN_KEY), "mls": ("mls", RUN_KEY),
+               "analyze": ("structure", RUN_KEY), "calippso": ("calippso", RUN_KEY),
+               "mls_grid": ("validation", GRID_KEY)}
+
+#: The paper's tables and the figures drawn from the dataset (Fig. 1, a rendered packing, is apart).
+TABLE_NAMES = ("table2", "table3", "table4")
+TABLE_FORMATS = ("csv", "md", "tex")
+FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces")
+FIGURE_FORMATS = ("png", "pdf")
 
 
 def fmt(x: float) -> str:
@@ -75,9 +113,14 @@ class Run:
     rate: float
     replica: int
 
+    @classmethod
+    def from_wildcards(cls, wildcards) -> Run:
+        """The run of a job from its wildcards ``protocol``, ``sigma``, ``rate`` and ``replica`` (path text)."""
+        return cls(wildcards.protocol, float(wildcards.sigma), float(wildcards.rate), int(wildcards.replica))
+
     @property
     def key(self) -> str:
-        return f"{self.protocol}/sigma{fmt(self.sigma)}/rate{fmt(self.rate)}/r{self.replica}"
+        return RUN_KEY.format(protocol=self.protocol, sigma=fmt(self.sigma), rate=fmt(self.rate), replica=self.replica)
 
     def seed(self, master: int, purpose: str = "poisson") -> int:
         return derive_seed(master, self.protocol, float(self.sigma), float(self.rate), self.replica, purpose)
@@ -92,15 +135,96 @@ class GridRun:
     initial_rate: float
     final_rate: float
 
+    @classmethod
+    def from_wildcards(cls, wildcards) -> GridRun:
+        """The grid run of a job from its wildcards (those of :meth:`Run.from_wildcards` and ``factor``, ``g0``,
+        ``gf``)."""
+        return cls(Run.from_wildcards(wildcards), float(wildcards.factor), float(wildcards.g0), float(wildcards.gf))
+
     @property
     def key(self) -> str:
-        return (
-            f"{self.source.key}/f{fmt(self.decrease_factor)}_g{fmt(self.initial_rate)}_gf{fmt(self.final_rate)}"
-        )
+        return GRID_KEY.format(protocol=self.source.protocol, sigma=fmt(self.source.sigma), rate=fmt(self.source.rate),
+                               replica=self.source.replica, factor=fmt(self.decrease_factor),
+                               g0=fmt(self.initial_rate), gf=fmt(self.final_rate))
+
+    @property
+    def ladder(self) -> dict[str, float]:
+        """The MLS rate ladder (keywords of :func:`spherejam.workflow.cost_model.runtime_minutes`)."""
+        return {"initial_rate": self.initial_rate, "decrease_factor": self.decrease_factor,
+                "final_rate": self.final_rate}
+
+    def seed(self, master: int) -> int:
+        """Seed of the MLS velocities: the source packing's, for a purpose naming the ladder."""
+        ladder = "-".join(fmt(x) for x in (self.decrease_factor, self.initial_rate, self.final_rate))
+        return self.source.seed(master, f"grid-{ladder}")
+
+
+class Paths:
+    """Every file of the workflow below one results folder, as text (what Snakemake takes). A ``key`` is a
+    :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use."""
+
+    def __init__(self, results: Path):
+        self.results = results
+
+    def _file(self, *parts: str) -> str:
+        return str(self.results.joinpath(*parts))
+
+    def packing(self, stage: str, key: str = RUN_KEY) -> str:
+        """A file of one packing: stage is a key of :data:`PACKING_FILES`."""
+        return self._file("packings", key, PACKING_FILES[stage])
+
+    def grid(self, key: str = GRID_KEY) -> str:
+        """The MLS output of one validation-grid run."""
+        return self._file("validation", f"{key}.h5")
+
+    def _job(self, kind: str, job: str, key: str | None, suffix: str) -> str:
+        folder, pattern = JOB_FOLDERS[job]
+        return self._file(kind, folder, f"{pattern if key is None else key}{suffix}")
+
+    def log(self, job: str, key: str | None = None) -> str:
+        """Log of a per-packing job (a key of :data:`JOB_FOLDERS`)."""
+        return self._job("logs", job, key, ".log")
+
+    def benchmark(self, job: str, key: str | None = None) -> str:
+        return self._job("benchmarks", job, key, ".tsv")
+
+    def checkpoint(self, job: str, key: str | None = None) -> str:
+        """Checkpoint of a long job: a job cut at its time limit resumes from it."""
+        return self._job("checkpoints", job, key, ".h5")
+
+    def experiment_log(self, name: str) -> str:
+        """Log of a job of the whole experiment (``experiment_manifest``, ``dataset``, ``tables``)."""
+        return self._file("logs", f"{name}.log")
+
+    def figure_log(self, name: str = "{name}") -> str:
+        return self._file("logs", "figures", f"{name}.log")
+
+    @property
+    def manifest(self) -> str:
+        return self._file("experiment.json")
+
+    @property
+    def dataset(self) -> str:
+        return self._file("dataset.nc")
+
+    def table(self, name: str, ext: str) -> str:
+        return self._file("tables", f"{name}.{ext}")
+
+    def tables(self, formats=TABLE_FORMATS) -> list[str]:
+        """Tables 2-4 in each of ``formats``."""
+        return [self.table(name, ext) for name in TABLE_NAMES for ext in formats]
+
+    def figure(self, ext: str, name: str = "{name}") -> str:
+        return self._file("figures", f"{name}.{ext}")
+
+    def figures(self, names=FIGURE_NAMES) -> list[str]:
+        """The figures ``names`` in every format."""
+        return [self.figure(ext, name) for name in names for ext in FIGURE_FORMATS]
 
 
 class Experiment:
-    """Runs and paths of one validated config. ``results`` is the output folder (default ``results``)."""
+    """Runs, seeds and paths of one validated config. ``results`` is the output folder (default ``results``);
+    ``paths`` its :class:`Paths`."""
 
     def __init__(self, config: dict[str, Any]):
         self.config = config
@@ -119,6 +243,7 @@ class Experiment:
             grid = config.get("validation_grid", {})
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"config: missing or malformed key {exc}") from None
+        self.paths = Paths(self.results)
         known = {fmt(s) for s in self.sigmas}
         for p in PROTOCOLS:
             for sigmas, _ in self.extra_rates[p]:
@@ -181,27 +306,71 @@ class Experiment:
             )
         ]
 
-    # --- paths -----------------------------------------------------------------------------------------------------
-    def packing_dir(self, run: Run) -> Path:
-        return self.results / "packings" / run.key
+    # --- seeds (Snakemake ``params`` functions of a job's wildcards) ---------------------------------------------
+    def run_seed(self, purpose: str) -> Callable[[Any], int]:
+        """The seed of a packing's job for ``purpose`` (``poisson``, ``ls``, ``mls``), from the job's wildcards."""
+        return lambda wildcards: Run.from_wildcards(wildcards).seed(self.master_seed, purpose)
 
+    def grid_seed(self, wildcards) -> int:
+        """The seed of a validation-grid MLS job, from its wildcards."""
+        return GridRun.from_wildcards(wildcards).seed(self.master_seed)
+
+    # --- command-line arguments from the config --------------------------------------------------------------------
+    @property
+    def mls(self) -> dict[str, Any]:
+        """The config's MLS section (the schema has filled in its defaults)."""
+        return self.config["mls"]
+
+    @property
+    def mls_ladder(self) -> dict[str, float]:
+        """The MLS rate ladder of the config (keywords of :func:`spherejam.workflow.cost_model.runtime_minutes`)."""
+        return {k: self.mls[k] for k in ("initial_rate", "decrease_factor", "final_rate")}
+
+    def mls_options(self) -> str:
+        """The ``spherejam mls`` stall-rule and cut-off flags of the config."""
+        mls = self.mls
+        stall = mls["stall_windows"]
+        flags = ["--no-stall-rule" if stall is None else f"--stall-windows {stall}"]
+        if mls.get("max_collisions_per_particle") is not None:
+            flags.append(f"--max-collisions-per-particle {mls['max_collisions_per_particle']}")
+        if mls.get("max_wall_time") is not None:
+            flags.append(f"--max-wall-time {mls['max_wall_time']}")
+        return " ".join(flags)
+
+    def fb_options(self) -> str:
+        """The ``spherejam fb`` flags of the config: ``--phi-nominal`` if set (else FB's own default)."""
+        phi = self.config["fb"].get("phi_nominal")
+        return "" if phi is None else f"--phi-nominal {phi}"
+
+    # --- paths -----------------------------------------------------------------------------------------------------
     def path(self, run: Run, stage: str) -> Path:
-        """File of a run: stage is ``poisson``, ``initial`` (LS/FB output), ``jammed`` (MLS), ``structure``
-        (analysis JSON of the jammed packing) or ``calippso`` (certification JSON)."""
-        suffix = ".json" if stage in ("structure", "calippso") else ".h5"
-        return self.packing_dir(run) / f"{stage}{suffix}"
+        """File of a run: stage is a key of :data:`PACKING_FILES` (``poisson``, ``initial`` (LS/FB output),
+        ``jammed`` (MLS), ``structure`` (analysis JSON of the jammed packing), ``calippso`` (certification JSON),
+        ``calippso_packing``)."""
+        return Path(self.paths.packing(stage, run.key))
 
     def grid_path(self, grid_run: GridRun) -> Path:
-        return self.results / "validation" / f"{grid_run.key}.h5"
+        return Path(self.paths.grid(grid_run.key))
 
-    def iter_all_outputs(self) -> Iterator[Path]:
-        for run in self.runs():
-            for stage in ("initial", "jammed"):
-                yield self.path(run, stage)
-        for grid_run in self.grid_runs():
-            yield self.grid_path(grid_run)
+    def dataset_inputs(self) -> list[str]:
+        """Every file the dataset builder (:func:`spherejam.workflow.dataset.build_dataset`) reads besides the
+        manifest: per packing its LS/FB and MLS outputs, its structure analysis (if enabled), CALiPPSO's summary and
+        packing (if enabled); and every validation-grid output."""
+        stages = ["initial", "jammed"]
+        if self.config.get("analysis", {}).get("enabled", True):  # the schema's defaults
+            stages.append("structure")
+        if self.config.get("calippso", {}).get("enabled", True):
+            stages += ["calippso", "calippso_packing"]
+        files = [self.paths.packing(stage, run.key) for run in self.runs() for stage in stages]
+        return files + [self.paths.grid(g.key) for g in self.grid_runs()]
 
 
-def parse_run(protocol: str, sigma: str, rate: str, replica: str) -> Run:
-    """A :class:`Run` from path wildcards."""
-    return Run(protocol, float(sigma), float(rate), int(replica))
+def mls_command(initial_rate: str, decrease_factor: str, final_rate: str) -> str:
+    """The shell line of an MLS job, with Snakemake placeholders: the rate ladder as given (the config's through the
+    job's params, a validation-grid run's through its wildcards), the rest from the job's params ``p_max``,
+    ``max_eq``, ``seed``, ``options`` (:meth:`Experiment.mls_options`) and ``checkpoint``."""
+    return (
+        f"spherejam mls {{input}} --initial-rate {initial_rate} --decrease-factor {decrease_factor}"
+        f" --final-rate {final_rate} --p-max {{params.p_max}} --max-equilibration-windows {{params.max_eq}}"
+        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+    )

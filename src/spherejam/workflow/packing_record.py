@@ -18,9 +18,10 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError, PackingFileError
+from . import experiment
 
-#: Files of one packing below ``<results>/packings/<key>/`` (the workflow's stages; see experiment.Experiment.path).
-PACKING_FILES = ("poisson.h5", "initial.h5", "jammed.h5", "structure.json", "calippso.json", "calippso.h5")
+#: Files of one packing below ``<results>/packings/<key>/`` (the workflow's stages).
+PACKING_FILES = tuple(experiment.PACKING_FILES.values())
 
 
 @dataclass
@@ -92,13 +93,9 @@ def locate(dataset_path: str | os.PathLike, ds, key: str) -> PackingFiles:
     if results is not None:
         folder = results / "packings" / key
         files = {name: folder / name for name in PACKING_FILES if (folder / name).is_file()}
-        protocol, _, rest = key.partition("/")
-        log_dir = results / "logs"
-        if log_dir.is_dir():
-            for rule in sorted(p for p in log_dir.iterdir() if p.is_dir()):
-                for candidate in (rule / f"{key}.log", rule / f"{rest}.log" if rule.name == protocol else None):
-                    if candidate is not None and candidate.is_file():
-                        logs.append(candidate)
+        paths = experiment.Paths(results)
+        jobs = [job for job in experiment.JOB_FOLDERS if job != "mls_grid"]  # the packing's own jobs, in order
+        logs = [Path(log) for log in dict.fromkeys(paths.log(job, key) for job in jobs) if Path(log).is_file()]
         grid_dir = results / "validation" / key
         if grid_dir.is_dir():
             grid_files = sorted(grid_dir.glob("*.h5"))
