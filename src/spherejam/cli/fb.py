@@ -28,7 +28,7 @@ def register(sub) -> None:
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds, 0 = every iteration (default 300)")
     p.add_argument("--max-iterations", type=FB_ITERATIONS.arg, help="stop after this many iterations")
-    p.add_argument("--max-wall-time", type=SECONDS.arg, 
+    p.add_argument("--max-wall-time", type=SECONDS.arg,
                    help="stop after this many seconds of this call (> 0); the checkpoint is kept, so a rerun continues")
     p.add_argument("--progress-interval", type=INTERVAL.arg, default=10.0,
                    help="seconds, 0 = every iteration (default 10)")

@@ -39,7 +39,7 @@ def add_event_driven_options(p) -> None:
                    help="window length in events per particle, 1 ... 10^6 (default 20)")
     p.add_argument("--count-collisions", action="store_true",
                    help="count only collisions towards the window length (default: all events, as the reference)")
-    p.add_argument("--max-wall-time", type=SECONDS.arg, default=None, 
+    p.add_argument("--max-wall-time", type=SECONDS.arg, default=None,
                    help="stop after this many seconds of this call (> 0); the checkpoint is kept, so a rerun continues")
     p.add_argument("--checkpoint", type=output_file, default=None,
                    help="checkpoint file: saved periodically, resumed from if present, removed when done")
