@@ -384,6 +384,8 @@ def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, c
     """
     ns, dim = samples.shape
     noff = offsets.shape[0]
+    coords = np.empty(dim, dtype=np.int64)
+    shift = np.empty(dim)  # unused: differences are folded to the minimum image
     for s in range(ns):
         if g > 0:
             v = 0
@@ -392,15 +394,11 @@ def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, c
             if covered[v]:
                 out[s] = 0
                 continue
-        c = 0
-        stride = 1
         for k in range(dim):
-            ck = math.floor(samples[s, k] / box * m) % m
-            c += ck * stride
-            stride *= m
+            coords[k] = neighbours.axis_cell(samples[s, k], box, m)
         free = 1
         for o in range(noff):
-            cj = neighbours._neighbour_cell(c, offsets[o], m, dim)
+            cj = neighbours.neighbour_cell(coords, offsets[o], m, box, shift)
             for idx in range(start[cj], start[cj + 1]):
                 i = order[idx]
                 r2 = 0.0
