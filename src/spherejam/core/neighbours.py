@@ -130,25 +130,11 @@ def stencil_cell(coords, o, w, m, box, shift):
 
 
 def neighbour_offsets(dim: int, m: int) -> np.ndarray:
-    """The offsets of the half-width-1 stencil as a table, row o = entry o of :func:`stencil_cell` (just the zero
-    offset when there is a single cell), for searches that visit the stencil in an order of their own."""
+    """The cell offsets of the entries of the half-width-1 stencil, row o = entry o of :func:`stencil_cell` (just
+    the zero offset when there is a single cell): for searches that visit the stencil in an order of their own."""
     if m == 1:
         return np.zeros((1, dim), dtype=np.int64)
     return np.array([t[::-1] for t in itertools.product((-1, 0, 1), repeat=dim)], dtype=np.int64)
-
-
-@njit(cache=True, inline="always")
-def neighbour_cell(coords, offset, m, box, shift):
-    """Index of the cell at ``coords + offset`` (|offset| < m per axis, periodic); its image shift goes to
-    ``shift``."""
-    cn = 0
-    stride = 1
-    for q in range(coords.shape[0]):
-        cq, s = _periodic(coords[q] + offset[q], m, box)
-        shift[q] = s
-        cn += cq * stride
-        stride *= m
-    return cn
 
 
 # --- binnings ---------------------------------------------------------------------------------------------------
