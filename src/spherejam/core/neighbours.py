@@ -21,7 +21,8 @@ Pair search
     same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio.
 
 All kernels are numba ``njit(cache=True)`` functions over plain arrays; the small geometry helpers are inlined into
-the engines' kernels.
+the engines' kernels. Numba keys a cached kernel on its own source file only: after editing this module, clear the
+numba cache (or touch the engines' kernel modules), or they keep the old inlined code.
 """
 
 from __future__ import annotations
@@ -56,8 +57,10 @@ def cells_per_side(box: float, min_side: float, dim: int, n: int) -> int:
     """Cells per box side m for cells of side L/m >= ``min_side``; 1 (one cell: all pairs) when fewer than 3 fit.
 
     Also caps the number of cells at about 2N (dilute, tiny-cutoff searches would otherwise allocate huge grids).
+    The LS engine numbers its spheres in cell order, so a change to this rule changes LS runs bitwise (not in
+    distribution); the searches' results do not depend on it.
     """
-    m = int(float(box) // float(min_side)) if min_side > 0 else 1
+    m = int(float(box) // float(min_side)) if min_side > 0 else 1  # exact floor: L / m >= min_side in floats too
     m = min(m, math.ceil((2.0 * n) ** (1.0 / dim)))
     return m if m >= 3 else 1
 
