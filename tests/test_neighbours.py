@@ -216,7 +216,7 @@ def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m
         i = int(rng.integers(n))
         st[i, 0:3] += rng.normal(0.0, 0.3, 3)
         assert ed._rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
-                               np.empty(3, dtype=np.int64), np.empty(3))
+                               np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64))
     assert np.all((refs >= 0.0) & (refs < box))
     assert np.array_equal(cellof, _reference_cells(refs, box, m)[1])
     want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)

@@ -92,17 +92,6 @@ def unravel_cell(c, m, coords):
 
 
 @njit(cache=True, inline="always")
-def _periodic(cq, m, box):
-    """A cell coordinate less than one grid length outside 0..m-1 folded into it, and the image shift of that
-    cell's spheres as seen from the unfolded position."""
-    if cq < 0:
-        return cq + m, -box
-    if cq >= m:
-        return cq - m, box
-    return cq, 0.0
-
-
-@njit(cache=True, inline="always")
 def stencil_size(w, m, dim):
     """Number of entries of the half-width-w stencil on an m^d grid: (2w+1)^d, or m^d when it would wrap."""
     span = 2 * w + 1
@@ -124,9 +113,15 @@ def stencil_cell(coords, o, w, m, box, shift):
     cn = 0
     stride = 1
     for q in range(dim):
-        cq, s = _periodic(coords[q] + o % span - w, m, box)
+        cq = coords[q] + o % span - w
         o //= span
-        shift[q] = s
+        shift[q] = 0.0  # the image of the cell's spheres as seen from the unfolded cq
+        if cq < 0:
+            cq += m
+            shift[q] = -box
+        elif cq >= m:
+            cq -= m
+            shift[q] = box
         cn += cq * stride
         stride *= m
     return cn

@@ -39,7 +39,8 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ...core.neighbours import axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size
+from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
+                                unravel_cell)
 
 MOVE = 0
 COLLISION = 1
@@ -252,21 +253,28 @@ def _wrap(x, box):
 
 
 @njit(cache=True, inline="always")
-def _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, out, row, coords, shift):
-    """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin (the 3x3x3 stencil around the point) to
-    ``out[row, :]``; returns the count (entries beyond the row's capacity are counted, not written).
+def _stencil_of(coords, box, m, cells, shift):
+    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells``; returns their number.
 
-    ``coords`` (3 ints) and ``shift`` (3 floats, unused: differences are folded) are work space.
+    Gathered once per cell, not per sphere: a full rebuild visits the spheres in cell order.
     """
+    count = stencil_size(1, m, 3)
+    for o in range(count):
+        cells[o] = stencil_cell(coords, o, 1, m, box, shift)  # shift unused: differences are folded
+    return count
+
+
+@njit(cache=True, inline="always")
+def _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, out, row):
+    """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin in the cells ``cells[:ncells]`` (the
+    stencil of the point's cell) to ``out[row, :]``; returns the count (entries beyond the row's capacity are
+    counted, not written)."""
     half = 0.5 * box
     cap = out.shape[1]
-    coords[0] = axis_cell(x, box, m)
-    coords[1] = axis_cell(y, box, m)
-    coords[2] = axis_cell(z, box, m)
     di = st[i, 7]
     count = 0
-    for o in range(stencil_size(1, m, 3)):
-        j = head[stencil_cell(coords, o, 1, m, box, shift)]
+    for o in range(ncells):
+        j = head[cells[o]]
         while j >= 0:
             if j != i:
                 dx = fold(refs[j, 0] - x, box, half)
@@ -301,9 +309,16 @@ def build_lists(st, box, rho_list, skin, m, nbr):
     max_count = 0
     coords = np.empty(3, dtype=np.int64)
     shift = np.empty(3)
+    cells = np.empty(27, dtype=np.int64)
+    ncells = 0
+    last = -1
     for i in range(n):
-        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, m, rho_list, skin, head,
-                                   nxt, nbr, i, coords, shift)
+        if cellof[i] != last:
+            last = cellof[i]
+            unravel_cell(last, m, coords)
+            ncells = _stencil_of(coords, box, m, cells, shift)
+        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, rho_list, skin, head, nxt,
+                                   cells, ncells, nbr, i)
         nnb[i] = min(count, cap)
         max_count = max(max_count, count)
     return refs, nnb, head, nxt, prv, cellof, max_count
@@ -321,7 +336,8 @@ def _remove_from_list(nbr, nnb, j, i):
 
 
 @njit(cache=True)
-def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift):
+def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift,
+                 cells):
     """Local Verlet update of particle i (synchronised): new reference centre = its wrapped position.
 
     Returns False (and changes nothing) if a list would overflow.
@@ -330,7 +346,11 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
     x = _wrap(st[i, 0], box)
     y = _wrap(st[i, 1], box)
     z = _wrap(st[i, 2], box)
-    count = _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch, 0, coords, shift)
+    coords[0] = axis_cell(x, box, m)
+    coords[1] = axis_cell(y, box, m)
+    coords[2] = axis_cell(z, box, m)
+    ncells = _stencil_of(coords, box, m, cells, shift)
+    count = _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, scratch, 0)
     if count > cap or count > scratch.shape[1]:
         return False
     for k in range(count):
@@ -461,6 +481,7 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
     half = 0.5 * box
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
+    cells = np.empty(27, dtype=np.int64)
     while True:
         i = heap[0]
         te = hkey[0]
@@ -473,7 +494,7 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
         if kind == SKIN:
             _sync(st, i, te)
             if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
-                                coords, shift):
+                                coords, shift, cells):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
