@@ -1,11 +1,16 @@
-"""The cell-list neighbour search against brute force, including polydisperse and d != 3 cases."""
+"""The shared cell list (geometry, both binnings) and the searches built on it against brute force: periodic
+wrapping, boxes with fewer than 3 cells per side, polydisperse and d != 3 cases, and the event-driven engine's lists."""
+
+import itertools
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spherejam.core import neighbours
 from spherejam.core.packing import Packing
+from spherejam.engines.kernels import event_driven as ed
 
 
 def _as_set(i, j):
@@ -59,3 +64,160 @@ def test_check_finds_worst_overlap():
     assert np.isclose(rep.worst_overlap, 1e-3)
     ok = Packing(pos[2:], np.ones(2), 10.0).check(1e-10)
     assert ok.ok and ok.n_overlaps == 0 and 0 < ok.worst_overlap < 1e-10
+
+
+def _reference_cells(points, box, m):
+    """Cell coordinates and index of each point: the cell of its image in [0, L)."""
+    coords = np.floor(np.mod(points, box) / box * m).astype(np.int64) % m
+    return coords, coords @ (m ** np.arange(points.shape[1]))
+
+
+def _in_cell(x, c, box, m):
+    """Whether some periodic image of coordinate x lies in cell coordinate c (faces included, to round-off)."""
+    side = box / m
+    images = x + box * np.arange(-3, 4)
+    return bool(np.any((images >= c * side - 1e-12 * box) & (images <= (c + 1) * side + 1e-12 * box)))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3, 5])
+def test_cells_per_side_never_gives_cells_smaller_than_asked(rng, dim):
+    for _ in range(200):
+        box, side, n = rng.uniform(0.5, 50.0), rng.uniform(0.01, 10.0), int(rng.integers(2, 5000))
+        m = neighbours.cells_per_side(box, side, dim, n)
+        assert m == 1 or 3 <= m <= np.ceil((2.0 * n) ** (1.0 / dim))
+        if m > 1:
+            assert box / m >= side
+        elif box // side >= 3:  # a single cell only when the cap (tiny N) forbids 3 per side
+            assert np.ceil((2.0 * n) ** (1.0 / dim)) < 3
+    assert neighbours.cells_per_side(10.0, 3.4, 3, 1000) == 1  # 2 cells would fit: the 3x3x3 stencil needs 3
+    assert neighbours.cells_per_side(9.0, 3.0, 3, 1000) == 3
+    assert neighbours.cells_per_side(9.0, 3.0 * (1 + 1e-15), 3, 1000) == 1  # exact floor: 3 cells would be too small
+    assert neighbours.cells_per_side(10.0, 0.0, 3, 1000) == 1
+
+
+@pytest.mark.parametrize("m", [1, 3, 4, 7])
+def test_binnings_put_every_point_in_its_cell(rng, m):
+    box, n, dim = 5.0, 300, 3
+    pts = rng.random((n, dim)) * box
+    pts[:5] = [[box, 0.0, 1.0], [-1e-17, 2.0, box - 1e-15], [0.0, 0.0, 0.0], [box * (1 + 1e-16), 1.0, -box / 3],
+               [2.0 * box + 0.1, -0.1, 0.5]]  # on and beyond the faces: the periodic image's cell
+    want = np.array([neighbours.cell_of(p, box, m) for p in pts])
+    coords = np.empty((n, dim), dtype=np.int64)
+    for i in range(n):
+        neighbours.unravel_cell(want[i], m, coords[i])
+        assert all(_in_cell(pts[i, k], coords[i, k], box, m) for k in range(dim))
+    interior = np.all(np.abs(pts / (box / m) - np.round(pts / (box / m))) > 1e-9, axis=1)
+    assert np.array_equal(want[interior], _reference_cells(pts, box, m)[1][interior])
+    assert np.array_equal(want, coords @ (m ** np.arange(dim)))
+    cell, start, order = neighbours.cell_sort(pts, box, m)
+    assert np.array_equal(cell, want) and start[-1] == n
+    head, nxt, prv, linked = neighbours.link_cells(pts, box, m)
+    assert np.array_equal(linked, want)
+    for c in range(m**dim):
+        members = np.flatnonzero(want == c)  # in index order in both binnings
+        assert np.array_equal(order[start[c]:start[c + 1]], members)
+        assert np.array_equal(_walk(head, nxt, prv, c), members)
+    # moves keep the linked lists consistent (a model: the set of points of each cell)
+    model = want.copy()
+    for _ in range(500):
+        i, c = int(rng.integers(n)), int(rng.integers(m**dim))
+        neighbours.move_to_cell(i, c, head, nxt, prv, linked)
+        model[i] = c
+    assert np.array_equal(linked, model)
+    for c in range(m**dim):
+        assert sorted(_walk(head, nxt, prv, c)) == np.flatnonzero(model == c).tolist()
+
+
+def _walk(head, nxt, prv, c):
+    out, j, before = [], head[c], -1
+    while j >= 0:
+        assert prv[j] == before
+        out.append(int(j))
+        before, j = j, nxt[j]
+    return out
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("m", [1, 2, 3, 4, 5, 8])
+@pytest.mark.parametrize("w", [1, 2, 3])
+def test_stencil_is_the_periodic_block_of_cells_with_its_image_shifts(rng, dim, m, w):
+    box = 6.0
+    side = box / m
+    shift = np.empty(dim)
+    for _ in range(5):
+        centre = rng.integers(0, m, dim)
+        size = neighbours.stencil_size(w, m, dim)
+        cells = [neighbours.stencil_cell(centre, o, w, m, box, shift) for o in range(size)]
+        if 2 * w + 1 > m:  # wraps onto itself: the whole grid, once, unshifted
+            assert cells == list(range(m**dim))
+            if m == 1:
+                assert neighbours.neighbour_offsets(dim, m).tolist() == [[0] * dim]
+            continue
+        offsets = [t[::-1] for t in itertools.product(range(-w, w + 1), repeat=dim)]  # first axis fastest
+        assert len(cells) == len(offsets) == len(set(cells))  # each cell once
+        for o, off in enumerate(offsets):
+            cn = neighbours.stencil_cell(centre, o, w, m, box, shift)
+            unwrapped = centre + np.array(off)
+            assert cn == (np.mod(unwrapped, m) @ (m ** np.arange(dim)))
+            assert np.array_equal(shift, box * np.floor_divide(unwrapped, m))  # -L, 0 or +L per axis
+            # a point of that cell, moved by the shift, lies in the unwrapped cell next to the centre
+            cn_coords = np.mod(unwrapped, m)
+            point = (cn_coords + rng.random(dim)) * side
+            assert np.array_equal(np.floor((point + shift) / side).astype(int), unwrapped)
+            if w == 1:  # the offset table describes the same entries in the same order
+                assert np.array_equal(neighbours.neighbour_offsets(dim, m)[o], off)
+
+
+@pytest.mark.parametrize("box, m_expected", [(2.5, 1), (3.4, 3), (8.0, 7)])
+@pytest.mark.parametrize("sigma", [0.0, 0.4])
+def test_pairs_within_small_and_large_boxes_polydisperse(rng, box, m_expected, sigma):
+    n = 150
+    pos = rng.random((n, 3)) * box
+    pos[:4] = [[0.0, 0.0, 0.0], [box - 1e-9, box - 1e-9, box - 1e-9], [box * 0.5, 0.0, box - 1e-12], [0.0, 1.0, 0.0]]
+    dia = rng.lognormal(0.0, sigma, n) if sigma else np.ones(n)
+    dia *= 1.0 / dia.max()  # largest diameter 1: the cutoff sets the cell count
+    assert neighbours.cells_per_side(box, 1.1, 3, n) == m_expected
+    ci, cj, cr = neighbours.pairs_within(pos, dia, box, 1.1)
+    bi, bj, br = neighbours.brute_force_pairs(pos, dia, box, 1.1)
+    assert _as_set(ci, cj) == _as_set(bi, bj) and len(ci) == len(bi)
+    assert (0, 1) in _as_set(ci, cj)  # across the corner of the box
+    order = np.lexsort((bj, bi))
+    np.testing.assert_allclose(cr, br[order], rtol=1e-14)
+
+
+def _brute_force_lists(refs, nominal, box, rho_list, skin):
+    d = refs[None, :, :] - refs[:, None, :]
+    d -= box * np.floor(d / box + 0.5)
+    r = np.sqrt((d * d).sum(axis=2))
+    cut = rho_list * 0.5 * (nominal[:, None] + nominal[None, :]) + skin
+    near = r < cut
+    np.fill_diagonal(near, False)
+    return [set(np.flatnonzero(row).tolist()) for row in near]
+
+
+@pytest.mark.parametrize("box, n, m_expected", [(2.0, 100, 1), (2.2, 100, 3), (9.0, 200, 8)])
+@pytest.mark.parametrize("sigma", [0.0, 0.3])
+def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m_expected, sigma):
+    """The LS engine's Verlet lists (linked cells, 3x3x3 stencil) from scratch and after per-particle updates."""
+    rho_list, skin = 0.5, 0.2
+    st = np.zeros((n, 8))
+    st[:, 0:3] = rng.random((n, 3)) * box
+    st[:, 7] = rng.lognormal(0.0, sigma, n) if sigma else 1.0
+    st[:, 7] /= st[:, 7].max()
+    m = neighbours.cells_per_side(box, rho_list * st[:, 7].max() + skin, 3, n)
+    assert m == m_expected
+    nbr = np.zeros((n, 64), dtype=np.int32)
+    refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, box, rho_list, skin, m, nbr)
+    assert max_count <= nbr.shape[1]
+    want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)
+    assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == want
+    scratch = np.zeros((1, 64), dtype=np.int32)
+    for _ in range(300):  # a particle leaves its skin sphere (possibly through a face of the box): local update
+        i = int(rng.integers(n))
+        st[i, 0:3] += rng.normal(0.0, 0.3, 3)
+        assert ed._rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
+                               np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64))
+    assert np.all((refs >= 0.0) & (refs < box))
+    assert np.array_equal(cellof, _reference_cells(refs, box, m)[1])
+    want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)
+    assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == want

@@ -376,14 +376,17 @@ def _covered_voxels(positions, reach, box, g):
 
 
 @njit(cache=True)
-def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, covered, g, out):
+def _uncovered(samples, positions, reach, box, m, visit, cell, start, order, covered, g, out):
     """out[s] = 1 if sample s lies at least reach[i] from every centre i (minimum image), else 0.
 
     ``covered`` (g^3 voxels, d = 3; g = 0 disables it) short-cuts points inside a fully covered voxel.
-    ``offsets`` should list the own cell first (the likeliest to hold a covering sphere).
+    ``visit`` lists the entries of the cell stencil in scan order, best the own cell first (the likeliest to hold a
+    covering sphere).
     """
     ns, dim = samples.shape
-    noff = offsets.shape[0]
+    noff = visit.shape[0]
+    coords = np.empty(dim, dtype=np.int64)
+    shift = np.empty(dim)  # unused: differences are folded to the minimum image
     for s in range(ns):
         if g > 0:
             v = 0
@@ -392,15 +395,11 @@ def _uncovered(samples, positions, reach, box, m, offsets, cell, start, order, c
             if covered[v]:
                 out[s] = 0
                 continue
-        c = 0
-        stride = 1
         for k in range(dim):
-            ck = math.floor(samples[s, k] / box * m) % m
-            c += ck * stride
-            stride *= m
+            coords[k] = neighbours.axis_cell(samples[s, k], box, m)
         free = 1
         for o in range(noff):
-            cj = neighbours._neighbour_cell(c, offsets[o], m, dim)
+            cj = neighbours.stencil_cell(coords, visit[o], 1, m, box, shift)
             for idx in range(start[cj], start[cj + 1]):
                 i = order[idx]
                 r2 = 0.0
@@ -435,8 +434,7 @@ def pore_size_entropy(
     threshold = packing.mean_diameter / (2.0 * PORE_ALPHA)
     reach = 0.5 * packing.diameters + threshold
     m = neighbours.cells_per_side(box, float(reach.max()), dim, n)
-    offsets = neighbours.neighbour_offsets(dim, m)
-    offsets = offsets[np.argsort(np.abs(offsets).sum(axis=1), kind="stable")]  # own cell first
+    visit = np.argsort(np.abs(neighbours.neighbour_offsets(dim, m)).sum(axis=1), kind="stable")  # own cell first
     cell, start, order = neighbours.cell_sort(packing.positions, box, m)
     if dim == 3:  # voxels of side ~ min reach / 6, at most 256^3 of them
         g = int(min(256, max(1, math.ceil(6.0 * box / float(reach.min())))))
@@ -451,7 +449,7 @@ def pore_size_entropy(
         size = min(chunk, target - drawn)
         y = rng.random((size, dim)) * box
         hits = np.empty(size, dtype=np.uint8)
-        _uncovered(y, packing.positions, reach, box, m, offsets, cell, start, order, covered, g, hits)
+        _uncovered(y, packing.positions, reach, box, m, visit, cell, start, order, covered, g, hits)
         if samples is not None:
             found += int(hits.sum())
             drawn += size

@@ -1,15 +1,34 @@
-"""Cell-list neighbour search in a periodic cube, exact for polydisperse spheres, in any dimension d.
+"""Cell lists in a periodic cube, in any dimension d: the one cell geometry of every neighbour search in the package,
+and the exact pair search built on it (polydisperse spheres).
 
-A pair (i, j) is *within scale s* when its minimum-image distance r_ij < s * D_ij, with D_ij = (D_i + D_j)/2 the
-contact distance. The cell side is at least s * max_i D_i >= s * max_ij D_ij, so every such pair lies in the same or
-an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio.
+Geometry
+    The box [0, L)^d is cut into m^d cubic cells of side L/m (:func:`cells_per_side`); the cell with coordinates
+    (c_0, ..., c_{d-1}) has index sum_k c_k m^k (first axis fastest). The *stencil* of half-width w of a cell is the
+    (2w+1)^d cells within w cells of it along every axis, entry o = sum_k (o_k + w) (2w+1)^k for offsets o_k in
+    -w..w (first axis fastest), each with the image shift (-L, 0 or +L per axis) that puts its spheres next to the
+    central cell. A stencil that would wrap onto itself (2w+1 > m) is the whole grid instead, every cell once and
+    with no shift: the caller then folds each difference to the minimum image.
 
-All kernels are numba ``njit(cache=True)`` functions over plain arrays, so engines can reuse them.
+Binnings of the same cells
+    :func:`cell_sort` (cell of each point, CSR start of each cell, points in cell order) for searches over a fixed
+    set of points: a cell's points are contiguous, and callers may copy their data in that order.
+    :func:`link_cells` / :func:`move_to_cell` (head/next/prev linked lists) for the event-driven engine, whose
+    spheres change cells one at a time between full rebuilds: a move is O(1), where a CSR would be rebuilt.
+
+Pair search
+    A pair (i, j) is *within scale s* when its minimum-image distance r_ij < s * D_ij, with D_ij = (D_i + D_j)/2 the
+    contact distance. The cell side is at least s * max_i D_i >= s * max_ij D_ij, so every such pair lies in the
+    same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio.
+
+All kernels are numba ``njit(cache=True)`` functions over plain arrays; the small geometry helpers are inlined into
+the engines' kernels. Numba keys a cached kernel on its own source file only: after editing this module, clear the
+numba cache, or the kernels that inline it (engines/kernels, analysis/structure) keep the old code.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 from numba import njit
@@ -31,38 +50,103 @@ def minimum_image(dx, box):
     return dx - box * np.floor(dx / box + 0.5)
 
 
+# --- cell geometry --------------------------------------------------------------------------------------------
+
+
 def cells_per_side(box: float, min_side: float, dim: int, n: int) -> int:
-    """Cells per box side for cells of side >= ``min_side``; 1 (all pairs) when fewer than 3 fit.
+    """Cells per box side m for cells of side L/m >= ``min_side``; 1 (one cell: all pairs) when fewer than 3 fit.
 
     Also caps the number of cells at about 2N (dilute, tiny-cutoff searches would otherwise allocate huge grids).
+    The LS engine numbers its spheres in cell order, so a change to this rule changes LS runs bitwise (not in
+    distribution); the searches' results do not depend on it.
     """
-    m = int(np.floor(box / min_side)) if min_side > 0 else 1
-    m = min(m, max(3, int(np.floor((2.0 * n) ** (1.0 / dim)))))
+    m = int(float(box) // float(min_side)) if min_side > 0 else 1  # exact floor: L / m >= min_side in floats too
+    m = min(m, math.ceil((2.0 * n) ** (1.0 / dim)))
     return m if m >= 3 else 1
 
 
+@njit(cache=True, inline="always")
+def axis_cell(x, box, m):
+    """Cell coordinate 0..m-1 of coordinate x along one axis; an x outside [0, L) (round-off, or a position not yet
+    wrapped) gets the cell of its periodic image."""
+    return int(np.floor(x / box * m)) % m
+
+
+@njit(cache=True, inline="always")
+def cell_of(point, box, m):
+    """Index of the cell holding ``point`` (a length-d array)."""
+    c = 0
+    stride = 1
+    for k in range(point.shape[0]):
+        c += axis_cell(point[k], box, m) * stride
+        stride *= m
+    return c
+
+
+@njit(cache=True, inline="always")
+def unravel_cell(c, m, coords):
+    """Write the coordinates of cell index c into ``coords`` (length d)."""
+    for k in range(coords.shape[0]):
+        coords[k] = c % m
+        c //= m
+
+
+@njit(cache=True, inline="always")
+def stencil_size(w, m, dim):
+    """Number of entries of the half-width-w stencil on an m^d grid: (2w+1)^d, or m^d when it would wrap."""
+    span = 2 * w + 1
+    return (m if span > m else span) ** dim
+
+
+@njit(cache=True, inline="always")
+def stencil_cell(coords, o, w, m, box, shift):
+    """Index of entry o of the half-width-w stencil around the cell at ``coords``; its image shift goes to ``shift``.
+
+    When the stencil would wrap onto itself (2w+1 > m), entry o is cell o of the grid and the shift is zero.
+    """
+    dim = coords.shape[0]
+    span = 2 * w + 1
+    if span > m:
+        for q in range(dim):
+            shift[q] = 0.0
+        return o
+    cn = 0
+    stride = 1
+    for q in range(dim):
+        cq = coords[q] + o % span - w
+        o //= span
+        shift[q] = 0.0  # the image of the cell's spheres as seen from the unfolded cq
+        if cq < 0:
+            cq += m
+            shift[q] = -box
+        elif cq >= m:
+            cq -= m
+            shift[q] = box
+        cn += cq * stride
+        stride *= m
+    return cn
+
+
 def neighbour_offsets(dim: int, m: int) -> np.ndarray:
-    """All cell offsets in {-1, 0, 1}^dim (just the zero offset when there is a single cell)."""
+    """The cell offsets of the entries of the half-width-1 stencil, row o = entry o of :func:`stencil_cell` (just
+    the zero offset when there is a single cell): for searches that visit the stencil in an order of their own."""
     if m == 1:
         return np.zeros((1, dim), dtype=np.int64)
-    return np.array(list(itertools.product((-1, 0, 1), repeat=dim)), dtype=np.int64)
+    return np.array([t[::-1] for t in itertools.product((-1, 0, 1), repeat=dim)], dtype=np.int64)
+
+
+# --- binnings ---------------------------------------------------------------------------------------------------
 
 
 @njit(cache=True)
 def cell_sort(positions, box, m):
-    """Sort particles into an m^d grid. Returns (cell of each particle, CSR start per cell, particle order)."""
+    """Sort particles into an m^d grid. Returns (cell of each particle, CSR start per cell, particle order); each
+    cell holds its particles in index order."""
     n, dim = positions.shape
     ncells = m**dim
     cell = np.empty(n, dtype=np.int64)
     for i in range(n):
-        c = 0
-        stride = 1
-        for k in range(dim):
-            ck = int(np.floor(positions[i, k] / box * m))
-            ck = ck % m  # positions exactly at box (round-off) or slightly outside
-            c += ck * stride
-            stride *= m
-        cell[i] = c
+        cell[i] = cell_of(positions[i], box, m)
     counts = np.zeros(ncells + 1, dtype=np.int64)
     for i in range(n):
         counts[cell[i] + 1] += 1
@@ -78,29 +162,59 @@ def cell_sort(positions, box, m):
 
 
 @njit(cache=True)
-def _neighbour_cell(c, offset, m, dim):
-    out = 0
-    stride = 1
-    rem = c
-    for k in range(dim):
-        ck = rem % m
-        rem //= m
-        ck = (ck + offset[k]) % m
-        out += ck * stride
-        stride *= m
-    return out
+def link_cells(positions, box, m):
+    """Linked cell lists of an m^d grid: ``(head, nxt, prv, cell)`` (int32), head[c] the first particle of cell c,
+    nxt[i] / prv[i] the next / previous one in i's cell (-1: none), cell[i] the cell of i. Each cell lists its
+    particles in index order."""
+    n = positions.shape[0]
+    head = np.full(m ** positions.shape[1], -1, dtype=np.int32)
+    nxt = np.full(n, -1, dtype=np.int32)
+    prv = np.full(n, -1, dtype=np.int32)
+    cell = np.empty(n, dtype=np.int32)
+    for i in range(n - 1, -1, -1):  # pushed at the head in reverse, so each cell ends up in index order
+        c = cell_of(positions[i], box, m)
+        cell[i] = c
+        nxt[i] = head[c]
+        if head[c] >= 0:
+            prv[head[c]] = i
+        head[c] = i
+    return head, nxt, prv, cell
+
+
+@njit(cache=True, inline="always")
+def move_to_cell(i, c, head, nxt, prv, cell):
+    """Move particle i of :func:`link_cells` lists into cell c (at its head; nothing if i is there already)."""
+    c_old = cell[i]
+    if c == c_old:
+        return
+    if prv[i] >= 0:
+        nxt[prv[i]] = nxt[i]
+    else:
+        head[c_old] = nxt[i]
+    if nxt[i] >= 0:
+        prv[nxt[i]] = prv[i]
+    prv[i] = -1
+    nxt[i] = head[c]
+    if head[c] >= 0:
+        prv[head[c]] = i
+    head[c] = i
+    cell[i] = c
+
+
+# --- pair search ------------------------------------------------------------------------------------------------
 
 
 @njit(cache=True)
-def _pairs_kernel(positions, diameters, box, scale, m, offsets, count_only, out_i, out_j, out_r):
+def _pairs_kernel(positions, diameters, box, scale, m, count_only, out_i, out_j, out_r):
     n, dim = positions.shape
     cell, start, order = cell_sort(positions, box, m)
-    noff = offsets.shape[0]
+    coords = np.empty(dim, dtype=np.int64)
+    shift = np.empty(dim)  # unused: differences are folded to the minimum image
     npairs = 0
     for i in range(n):
-        ci = cell[i]
-        for o in range(noff):
-            cj = _neighbour_cell(ci, offsets[o], m, dim)
+        unravel_cell(cell[i], m, coords)
+        for o in range(stencil_size(1, m, dim)):
+            cj = stencil_cell(coords, o, 1, m, box, shift)
             for idx in range(start[cj], start[cj + 1]):
                 j = order[idx]
                 if j <= i:
@@ -128,14 +242,13 @@ def pairs_within(positions: np.ndarray, diameters: np.ndarray, box: float, scale
     diameters = np.ascontiguousarray(diameters, dtype=np.float64)
     n, dim = positions.shape
     m = cells_per_side(box, scale * float(diameters.max()), dim, n)
-    offsets = neighbour_offsets(dim, m)
     empty_i = np.empty(0, dtype=np.int64)
     empty_r = np.empty(0, dtype=np.float64)
-    count = _pairs_kernel(positions, diameters, float(box), float(scale), m, offsets, True, empty_i, empty_i, empty_r)
+    count = _pairs_kernel(positions, diameters, float(box), float(scale), m, True, empty_i, empty_i, empty_r)
     out_i = np.empty(count, dtype=np.int64)
     out_j = np.empty(count, dtype=np.int64)
     out_r = np.empty(count, dtype=np.float64)
-    _pairs_kernel(positions, diameters, float(box), float(scale), m, offsets, False, out_i, out_j, out_r)
+    _pairs_kernel(positions, diameters, float(box), float(scale), m, False, out_i, out_j, out_r)
     key = np.lexsort((out_j, out_i))
     return out_i[key], out_j[key], out_r[key]
 

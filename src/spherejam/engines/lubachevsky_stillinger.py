@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.checkpoint import fingerprint
 from ..core.errors import InputError, SimulationError, require
-from ..core.neighbours import closest_pair
+from ..core.neighbours import cell_sort, cells_per_side, closest_pair
 from ..core.packing import Packing, ball_volume
 from ..core.progress import log_fraction
 from ..core.progress import rate as rate_of
@@ -165,11 +165,7 @@ class LSEngine:
         r_dilute = spacing * (3.0 * self.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
         skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
         skin = min(skin, limit - rho_list * dmax)
-        cell_side = rho_list * dmax + skin
-        m = int(box // cell_side)
-        m = min(m, math.ceil((2.0 * n) ** (1.0 / 3.0)))
-        if m < 3:
-            m = 1
+        m = cells_per_side(box, rho_list * dmax + skin, 3, n)
         self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]
         while True:
@@ -186,9 +182,7 @@ class LSEngine:
 
     def _sort_by_cell(self, m: int) -> None:
         """Renumber particles in cell order so that neighbours sit close in memory (all particles synchronised)."""
-        cell = np.floor(np.mod(self.st[:, 0:3], self.box) / self.box * m).astype(np.int64) % m
-        key = (cell[:, 2] * m + cell[:, 1]) * m + cell[:, 0]
-        order = np.argsort(key, kind="stable")
+        order = cell_sort(np.mod(self.st[:, 0:3], self.box), self.box, m)[2]
         if np.any(order != np.arange(self.n)):
             self.st = _aligned_copy(self.st[order])
             self.perm = self.perm[order]

@@ -39,7 +39,8 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ...core.neighbours import fold
+from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
+                                unravel_cell)
 
 MOVE = 0
 COLLISION = 1
@@ -237,15 +238,7 @@ def _sync(st, i, t):
     st[i, 6] = t
 
 
-# --- linked-cell grid and Verlet lists ---------------------------------------------------------------------------
-
-
-@njit(cache=True, inline="always")
-def _cell_of(x, y, z, box, m):
-    cx = int(np.floor(x / box * m)) % m
-    cy = int(np.floor(y / box * m)) % m
-    cz = int(np.floor(z / box * m)) % m
-    return (cz * m + cy) * m + cx
+# --- Verlet lists over the linked cells of :mod:`spherejam.core.neighbours` ---------------------------------------
 
 
 @njit(cache=True, inline="always")
@@ -260,36 +253,39 @@ def _wrap(x, box):
 
 
 @njit(cache=True, inline="always")
-def _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, out, row):
-    """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin (3x3x3 cells around the point) to
-    ``out[row, :]``; returns the count (entries beyond the row's capacity are counted, not written)."""
+def _stencil_of(coords, box, m, cells, shift):
+    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells``; returns their number.
+
+    Gathered once per cell, not per sphere: a full rebuild visits the spheres in cell order.
+    """
+    count = stencil_size(1, m, 3)
+    for o in range(count):
+        cells[o] = stencil_cell(coords, o, 1, m, box, shift)  # shift unused: differences are folded
+    return count
+
+
+@njit(cache=True, inline="always")
+def _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, out, row):
+    """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin in the cells ``cells[:ncells]`` (the
+    stencil of the point's cell) to ``out[row, :]``; returns the count (entries beyond the row's capacity are
+    counted, not written)."""
     half = 0.5 * box
     cap = out.shape[1]
-    c = _cell_of(x, y, z, box, m)
-    cz = c // (m * m)
-    cy = (c // m) % m
-    cx = c % m
     di = st[i, 7]
     count = 0
-    nd = 3 if m >= 3 else 1
-    for oz in range(nd):
-        for oy in range(nd):
-            for ox in range(nd):
-                cc = 0
-                if m >= 3:
-                    cc = (((cz + oz - 1) % m) * m + (cy + oy - 1) % m) * m + (cx + ox - 1) % m
-                j = head[cc]
-                while j >= 0:
-                    if j != i:
-                        dx = fold(refs[j, 0] - x, box, half)
-                        dy = fold(refs[j, 1] - y, box, half)
-                        dz = fold(refs[j, 2] - z, box, half)
-                        cut = rho_list * 0.5 * (di + st[j, 7]) + skin
-                        if dx * dx + dy * dy + dz * dz < cut * cut:
-                            if count < cap:
-                                out[row, count] = j
-                            count += 1
-                    j = nxt[j]
+    for o in range(ncells):
+        j = head[cells[o]]
+        while j >= 0:
+            if j != i:
+                dx = fold(refs[j, 0] - x, box, half)
+                dy = fold(refs[j, 1] - y, box, half)
+                dz = fold(refs[j, 2] - z, box, half)
+                cut = rho_list * 0.5 * (di + st[j, 7]) + skin
+                if dx * dx + dy * dy + dz * dz < cut * cut:
+                    if count < cap:
+                        out[row, count] = j
+                    count += 1
+            j = nxt[j]
     return count
 
 
@@ -307,24 +303,22 @@ def build_lists(st, box, rho_list, skin, m, nbr):
         for k in range(3):
             st[i, k] = _wrap(st[i, k], box)
             refs[i, k] = st[i, k]
-    ncell = m * m * m
-    head = np.full(ncell, -1, dtype=np.int32)
-    nxt = np.full(n, -1, dtype=np.int32)
-    prv = np.full(n, -1, dtype=np.int32)
-    cellof = np.empty(n, dtype=np.int32)
-    for i in range(n - 1, -1, -1):  # reverse so each cell lists particles in index order
-        c = _cell_of(refs[i, 0], refs[i, 1], refs[i, 2], box, m)
-        cellof[i] = c
-        nxt[i] = head[c]
-        if head[c] >= 0:
-            prv[head[c]] = i
-        head[c] = i
+    head, nxt, prv, cellof = link_cells(refs, box, m)
     nnb = np.zeros(n, dtype=np.int32)
     cap = nbr.shape[1]
     max_count = 0
+    coords = np.empty(3, dtype=np.int64)
+    shift = np.empty(3)
+    cells = np.empty(27, dtype=np.int64)
+    ncells = 0
+    last = -1
     for i in range(n):
-        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, m, rho_list, skin, head,
-                                   nxt, nbr, i)
+        if cellof[i] != last:
+            last = cellof[i]
+            unravel_cell(last, m, coords)
+            ncells = _stencil_of(coords, box, m, cells, shift)
+        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, rho_list, skin, head, nxt,
+                                   cells, ncells, nbr, i)
         nnb[i] = min(count, cap)
         max_count = max(max_count, count)
     return refs, nnb, head, nxt, prv, cellof, max_count
@@ -342,7 +336,8 @@ def _remove_from_list(nbr, nnb, j, i):
 
 
 @njit(cache=True)
-def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
+def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift,
+                 cells):
     """Local Verlet update of particle i (synchronised): new reference centre = its wrapped position.
 
     Returns False (and changes nothing) if a list would overflow.
@@ -351,7 +346,11 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
     x = _wrap(st[i, 0], box)
     y = _wrap(st[i, 1], box)
     z = _wrap(st[i, 2], box)
-    count = _gather_cell_block(st, refs, i, x, y, z, box, m, rho_list, skin, head, nxt, scratch, 0)
+    coords[0] = axis_cell(x, box, m)
+    coords[1] = axis_cell(y, box, m)
+    coords[2] = axis_cell(z, box, m)
+    ncells = _stencil_of(coords, box, m, cells, shift)
+    count = _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, scratch, 0)
     if count > cap or count > scratch.shape[1]:
         return False
     for k in range(count):
@@ -367,21 +366,7 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
     refs[i, 0] = x
     refs[i, 1] = y
     refs[i, 2] = z
-    c_new = _cell_of(x, y, z, box, m)
-    c_old = cellof[i]
-    if c_new != c_old:
-        if prv[i] >= 0:
-            nxt[prv[i]] = nxt[i]
-        else:
-            head[c_old] = nxt[i]
-        if nxt[i] >= 0:
-            prv[nxt[i]] = prv[i]
-        prv[i] = -1
-        nxt[i] = head[c_new]
-        if head[c_new] >= 0:
-            prv[head[c_new]] = i
-        head[c_new] = i
-        cellof[i] = c_new
+    move_to_cell(i, cell_of(refs[i], box, m), head, nxt, prv, cellof)
     for k in range(count):
         j = scratch[0, k]
         nbr[i, k] = j
@@ -494,6 +479,9 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
     Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
     """
     half = 0.5 * box
+    coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
+    shift = np.empty(3)
+    cells = np.empty(27, dtype=np.int64)
     while True:
         i = heap[0]
         te = hkey[0]
@@ -505,7 +493,8 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
         kind = ev_type[i]
         if kind == SKIN:
             _sync(st, i, te)
-            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch):
+            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
+                                coords, shift, cells):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...core.neighbours import cell_sort, fold
+from ...core.neighbours import cell_sort, fold, stencil_cell, stencil_size, unravel_cell
 
 
 @njit(cache=True, inline="always")
@@ -40,25 +40,6 @@ def _scan_cell(ps, ds, order, begin, end, a, i, shift, wrap, box, rho_out, skin,
 
 
 @njit(cache=True)
-def _neighbour_cell_shift(coords, offset, m, box, shift):
-    """Index of the cell at ``coords + offset`` (periodic) and the image shift of its spheres."""
-    cn = 0
-    stride = 1
-    for q in range(coords.shape[0]):
-        cq = coords[q] + offset[q]
-        shift[q] = 0.0
-        if cq < 0:
-            cq += m
-            shift[q] = -box
-        elif cq >= m:
-            cq -= m
-            shift[q] = box
-        cn += cq * stride
-        stride *= m
-    return cn
-
-
-@njit(cache=True)
 def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
     """CSR half list (row i holds j > i, ascending) of all pairs with r_ij < rho_out D_ij + skin.
 
@@ -81,22 +62,14 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
     pairs = np.empty((2, capacity), dtype=np.int64)  # appended in scan order: sequential writes
     count = np.zeros(1, dtype=np.int64)
     coords = np.empty(dim, dtype=np.int64)
-    offset = np.empty(dim, dtype=np.int64)
     shift = np.empty(dim)
     failed = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
     # spheres with a one-cell stencil, cell pair by cell pair
     if m >= 3:
         for c in range(m**dim):
-            rem = c
-            for q in range(dim):
-                coords[q] = rem % m
-                rem //= m
-            for o in range(3**dim):
-                rem = o
-                for q in range(dim):
-                    offset[q] = rem % 3 - 1
-                    rem //= 3
-                cn = _neighbour_cell_shift(coords, offset, m, box, shift)
+            unravel_cell(c, m, coords)
+            for o in range(stencil_size(1, m, dim)):
+                cn = stencil_cell(coords, o, 1, m, box, shift)
                 for a in range(start[c], start[c + 1]):
                     if stencil[a] == 1 and not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a],
                                                           shift, False, box, rho_out, skin, pairs, count):
@@ -106,18 +79,10 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
         w = stencil[a]
         if w == 1 and m >= 3:
             continue
-        wrap = 2 * w + 1 > m
-        c = cell[order[a]]
-        for q in range(dim):
-            coords[q] = c % m
-            c //= m
-        span = m if wrap else 2 * w + 1
-        for o in range(span**dim):
-            rem = o
-            for q in range(dim):
-                offset[q] = (rem % span - coords[q]) if wrap else (rem % span - w)
-                rem //= span
-            cn = _neighbour_cell_shift(coords, offset, m, box, shift)
+        wrap = 2 * w + 1 > m  # the whole grid, unshifted: fold each difference
+        unravel_cell(cell[order[a]], m, coords)
+        for o in range(stencil_size(w, m, dim)):
+            cn = stencil_cell(coords, o, w, m, box, shift)
             if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, wrap, box, rho_out,
                               skin, pairs, count):
                 return failed
