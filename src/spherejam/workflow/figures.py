@@ -121,13 +121,7 @@ def fig2(ds):
         ax.set_title(f"({letter}) {label}", loc="left", fontsize=10)
         ax.set_xlabel("inverse compression rate 1/γ")
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("packing density φ")
-    axes[1, 0].set_ylabel("packing density φ")
-    for ax in axes[:, 1]:
-        ax.set_ylabel("closest jamming density φ$_J$")
-    axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    return _finish_protocol_grid(fig, axes)
 
 
 def fig3(ds):
@@ -377,13 +371,7 @@ def fig7(ds):
         ax.set_title(f"({letter}) {label}", loc="left", fontsize=10)
         ax.set_xlabel("√γ")
         ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("packing density φ")
-    axes[1, 0].set_ylabel("packing density φ")
-    for ax in axes[:, 1]:
-        ax.set_ylabel("closest jamming density φ$_J$")
-    axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    return _finish_protocol_grid(fig, axes)
 
 
 STRUCTURE_PANELS = (
@@ -473,3 +461,14 @@ def save_figure(fig, stem: str | os.PathLike, formats=("png", "pdf")) -> list[Pa
         out.append(path)
     plt.close(fig)
     return out
+
+
+def _finish_protocol_grid(fig, axes):
+    """Axis labels and legend of a 2 x 2 grid whose rows are LS and FB and whose right column holds phi_J."""
+    for ax in axes[:, 0]:
+        ax.set_ylabel("packing density φ")
+    for ax in axes[:, 1]:
+        ax.set_ylabel("closest jamming density φ$_J$")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
