@@ -390,6 +390,30 @@ def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
         assert np.all(result.history["cpu_time"] >= 0)
 
 
+def test_uncertified_vertex_falls_back_to_simplex_from_its_basis(monkeypatch, ls_jammed_256):
+    """When the interior point's vertex is not certified (forced here: the active-set solve refuses every
+    prediction), primal simplex from the predicted basis solves the LP instead of a second interior point, and the
+    run certifies the same jammed state as IPX + crossover: same contacts and rattlers, force balance <= 1e-10."""
+    import spherejam.calippso.lp as lp
+    from spherejam.calippso.solution import METHOD_CODES
+
+    old = run_calippso(ls_jammed_256, solver="ipx", crossover=True)
+    monkeypatch.setattr(lp, "solve_active_set", lambda *args, **kwargs: None)
+    starts, warm_basis = [], lp._warm_basis
+    monkeypatch.setattr(lp, "_warm_basis", lambda start, *args: starts.append(start) or warm_basis(start, *args))
+    new = run_calippso(ls_jammed_256, solver="hipo", crossover=False, warm_start=False, active_set=False)
+    methods = new.history["method"]
+    assert np.all(methods == METHOD_CODES["predicted"]) and new.counters["lp_methods"] == {
+        "predicted": new.iterations + 1}
+    assert len(starts) == new.iterations + 1  # every LP started from its predicted basis, none re-solved
+    assert_jammed(new, 3)
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in old.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, old.rattlers)
+    assert max(new.force_balance_residual, old.force_balance_residual) <= 1e-10
+    assert new.phi == pytest.approx(old.phi, abs=1e-10)
+    np.testing.assert_allclose(np.sort(new.forces), np.sort(old.forces), rtol=1e-5)
+
+
 def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
     from spherejam.calippso.lp import SOLVERS
     from spherejam.calippso.solution import SOLVER_CODES
