@@ -22,8 +22,8 @@ pressure is the packing's own and not a fast compression's (``--start-kind ls`` 
 CALiPPSO consistency d phi_J / (p (phi_J - phi0)) printed below is ~1 for an MLS start but ~0.1 for a plain fast-LS
 start at p = 1e5, whose true pressure is ~10 times lower and which takes 5-8 times more LPs (measured at N = 1024).
 For each run it prints the LS time (not part of the target), the LP counts and CPU times per method (HiGHS interior
-point + crossover "ipm", certified interior-point vertex "vertex", warm-started simplex "warm", active set from the
-previous LP "active-set"), phi, contacts, rattlers, isostaticity, force balance, and the small-argument exponents of
+point + crossover "ipm", certified interior-point vertex "vertex", simplex from the basis of an uncertified vertex
+"predicted", warm-started simplex "warm", active set from the previous LP "active-set"), phi, contacts, rattlers, isostaticity, force balance, and the small-argument exponents of
 the gap and force distributions.
 """
 
@@ -161,16 +161,16 @@ def first_lp(start: Packing) -> tuple[tuple, dict]:
 
 def time_fallback(start: Packing, reps: int = 2) -> None:
     """The first LP of ``start`` by HiPO to the vertex tolerance; if its vertex is not certified, the fallback
-    timed both ways, alternately in this process: "predicted" (primal simplex from the predicted vertex's basis,
-    the path of lp.VERTEX_FALLBACK) against "ipm" (the old fallback, a second HiPO solve with crossover). CPU s;
-    the ratio is old / new of the fastest repetition."""
+    timed both ways at any N, alternately in this process: "predicted" (primal simplex from the predicted vertex's
+    basis, the path below lp.PREDICTED_MAX_N) against "ipm" (the old fallback, a second HiPO solve with crossover,
+    the path from that N on). CPU s; the ratio is old / new of the fastest repetition."""
     import highspy
 
     from spherejam.calippso import lp
 
     args, kw = first_lp(start)
     kw = {**kw, "solver": "hipo", "crossover": False, "warm": None}
-    run = highspy.Highs.run
+    run, max_n = highspy.Highs.run, lp.PREDICTED_MAX_N
     solves: list[str] = []
 
     def timed(self):
@@ -188,7 +188,7 @@ def time_fallback(start: Packing, reps: int = 2) -> None:
     try:
         for _ in range(reps):
             for fallback in ("ipm", "predicted"):
-                lp.VERTEX_FALLBACK, solves[:] = fallback, []
+                lp.PREDICTED_MAX_N, solves[:] = (0 if fallback == "ipm" else math.inf), []
                 cpu0 = time.process_time()
                 sol = lp.solve_lp(*args, **kw)
                 cpu = time.process_time() - cpu0
@@ -199,7 +199,7 @@ def time_fallback(start: Packing, reps: int = 2) -> None:
                 sols[fallback] = sol
                 print(f"   fallback {fallback}: {cpu:.2f} s CPU, method {sol.method}; solves: {'; '.join(solves)}")
     finally:
-        highspy.Highs.run, lp.VERTEX_FALLBACK = run, "predicted"
+        highspy.Highs.run, lp.PREDICTED_MAX_N = run, max_n
     old, new = sols["ipm"], sols["predicted"]
     same = bool(np.array_equal(old.duals > 0, new.duals > 0))
     print(f"first LP ({args[0].shape[0]} rows, N={start.n}): vertex not certified; fallback CPU s: old (ipm) "

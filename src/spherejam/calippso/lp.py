@@ -31,10 +31,14 @@ WARM_START_MAX_N = 4096
 #: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: tight
 #: enough that the near-active rows separate clearly from the others (docs/calippso.md §5.2).
 VERTEX_IPM_TOLERANCE = 1e-12
-#: What follows an interior point whose vertex is not certified: "predicted", primal simplex from the basis of the
-#: predicted vertex, or "ipm", a second interior point with HiGHS's crossover (the former path, kept so that
-#: benchmarks/bench_calippso.py can time both; docs/calippso.md §5.2).
-VERTEX_FALLBACK = "predicted"
+#: Smallest N whose uncertified vertices fall back to a second interior point with HiGHS's crossover; below it
+#: they fall back to primal simplex from the predicted vertex's basis. From N = 4096 on that basis needed more pivots
+#: than the second solve costs, as warm starts did (docs/calippso.md §5.2); benchmarks/bench_calippso.py --fallback
+#: sets it to time both paths on one LP.
+PREDICTED_MAX_N = 4096
+#: Primal simplex pivots allowed from a predicted basis before the second interior point takes over: about the
+#: break-even with that solve at N = 1024-2048 (docs/calippso.md §5.2).
+PREDICTED_PIVOT_LIMIT = 1500
 
 
 def resolve_solver(solver: str, n: int) -> str:
@@ -252,12 +256,13 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     else:
         attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
         if not crossover:
-            # an uncertified vertex falls back to primal simplex from the basis it predicts, not to a second
-            # interior point (docs/calippso.md §5.2)
+            # below PREDICTED_MAX_N an uncertified vertex falls back to primal simplex from the basis it
+            # predicts, not to a second interior point
             attempts[:0] = [("vertex", {**opts, "run_crossover": "off",
                                         "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}),
-                            ("predicted", {**opts, **PREDICTED_SIMPLEX, **_simplex_overrides(options)})]
-            if VERTEX_FALLBACK != "predicted":
+                            ("predicted", {**opts, **PREDICTED_SIMPLEX, **_simplex_overrides(options),
+                                           "simplex_iteration_limit": PREDICTED_PIVOT_LIMIT})]
+            if n >= PREDICTED_MAX_N:
                 del attempts[1]
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
         # beyond warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it

@@ -46,7 +46,6 @@ import os
 from dataclasses import dataclass
 
 from ..core.errors import InputError, require
-from ..core.validation import THREADS
 
 #: Stages (rule kinds) with a cost model.
 STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
@@ -227,6 +226,8 @@ def cpus_per_task(stage: str, n: int, threads: int = 1) -> int:
     _check_n(n)
     if stage != "calippso":
         return 1
+    from ..core.validation import THREADS  # stdlib only, like this module
+
     THREADS.check("calippso.threads", threads)
     return int(threads)
 
