@@ -23,8 +23,10 @@ CALiPPSO consistency d phi_J / (p (phi_J - phi0)) printed below is ~1 for an MLS
 start at p = 1e5, whose true pressure is ~10 times lower and which takes 5-8 times more LPs (measured at N = 1024).
 For each run it prints the LS time (not part of the target), the LP counts and CPU times per method (HiGHS interior
 point + crossover "ipm", certified interior-point vertex "vertex", simplex from the basis of an uncertified vertex
-"predicted", warm-started simplex "warm", active set from the previous LP "active-set"), phi, contacts, rattlers, isostaticity, force balance, and the small-argument exponents of
-the gap and force distributions.
+"predicted", warm-started simplex "warm", active set from the previous LP "active-set"), phi, contacts, rattlers,
+isostaticity, force balance, and the small-argument exponents of the gap and force distributions. ``--fallback``
+times the fallback of an uncertified vertex on the start's first LP, the new path against the old (docs/calippso.md
+§5.2).
 """
 
 from __future__ import annotations

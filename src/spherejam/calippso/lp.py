@@ -184,11 +184,11 @@ def _vertex_problem(rij, sigma2, pi, pj, s, inflation, duals, lower, upper, tole
 #: HiGHS options of a simplex solve from a given basis (a warm start, or the basis a vertex predicts): primal
 #: simplex, since that basis is nearly primal feasible (its rows barely moved), and no scaling, since the rows are
 #: O(1) already and scaling made warm solves slower (docs/calippso.md §5.3).
-PREDICTED_SIMPLEX = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0}
+SIMPLEX_FROM_BASIS = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0}
 
 
 def _simplex_overrides(options: dict[str, Any] | None) -> dict[str, Any]:
-    """The user's simplex options that override :data:`PREDICTED_SIMPLEX`."""
+    """The user's simplex options that override :data:`SIMPLEX_FROM_BASIS`."""
     return {k: v for k, v in (options or {}).items() if k in ("simplex_strategy", "simplex_scale_strategy")}
 
 
@@ -212,9 +212,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     in a few pivots where interior point starts from scratch (docs/calippso.md §5.3). Failing that, or without
     ``warm``, a cold solve by ``solver`` (one of :data:`SOLVERS`, with ``threads`` HiGHS threads). An interior
     point is followed by HiGHS's crossover when ``crossover``; otherwise its near-active rows predict the vertex,
-    which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2), and crossover is the
-    fallback. On a non-optimal result the LP is solved once more with dual simplex (IPX after a simplex cold solve)
-    before giving up (docs/calippso.md §6).
+    which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2); the fallback is primal
+    simplex from the predicted vertex's basis (method "predicted", below N = :data:`PREDICTED_MAX_N`), then a second
+    interior point with crossover. On a non-optimal result the LP is solved once more with dual simplex (IPX after a
+    simplex cold solve) before giving up (docs/calippso.md §6).
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
@@ -260,14 +261,14 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             # predicts, not to a second interior point
             attempts[:0] = [("vertex", {**opts, "run_crossover": "off",
                                         "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}),
-                            ("predicted", {**opts, **PREDICTED_SIMPLEX, **_simplex_overrides(options),
+                            ("predicted", {**opts, **SIMPLEX_FROM_BASIS, **_simplex_overrides(options),
                                            "simplex_iteration_limit": PREDICTED_PIVOT_LIMIT})]
             if n >= PREDICTED_MAX_N:
                 del attempts[1]
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
         # beyond warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
         limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
-        attempts.insert(0, ("warm", {**opts, **PREDICTED_SIMPLEX, "simplex_iteration_limit": limit,
+        attempts.insert(0, ("warm", {**opts, **SIMPLEX_FROM_BASIS, "simplex_iteration_limit": limit,
                                      **_simplex_overrides(options)}))
     failures = []
     predicted = None  # the basis an uncertified vertex predicts
