@@ -7,6 +7,7 @@
     python benchmarks/bench_calippso.py --dat FILE.dat  # a CALiPPSO.jl example input (d, N, sigma, then centres; L=1)
     python benchmarks/bench_calippso.py --mls           # certify MLS outputs: |delta phi| <= 1e-4 and isostatic
     python benchmarks/bench_calippso.py --save-start s.h5   # keep the start; --start s.h5 reruns on it
+    python benchmarks/bench_calippso.py --start s.h5 --fallback   # the uncertified-vertex fallback, old and new
 
 A path is ``solver[:threads][+crossover]``: ``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover),
 ``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only as the
@@ -21,15 +22,18 @@ pressure is the packing's own and not a fast compression's (``--start-kind ls`` 
 CALiPPSO consistency d phi_J / (p (phi_J - phi0)) printed below is ~1 for an MLS start but ~0.1 for a plain fast-LS
 start at p = 1e5, whose true pressure is ~10 times lower and which takes 5-8 times more LPs (measured at N = 1024).
 For each run it prints the LS time (not part of the target), the LP counts and CPU times per method (HiGHS interior
-point + crossover "ipm", certified interior-point vertex "vertex", warm-started simplex "warm", active set from the
-previous LP "active-set"), phi, contacts, rattlers, isostaticity, force balance, and the small-argument exponents of
-the gap and force distributions.
+point + crossover "ipm", certified interior-point vertex "vertex", simplex from the basis of an uncertified vertex
+"predicted", warm-started simplex "warm", active set from the previous LP "active-set"), phi, contacts, rattlers,
+isostaticity, force balance, and the small-argument exponents of the gap and force distributions. ``--fallback``
+times the fallback of an uncertified vertex on the start's first LP, the new path against the old (docs/calippso.md
+§5.2).
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 import time
 
@@ -136,6 +140,76 @@ def agreement(ref, other) -> str:
             f"{'agree' if ok else 'DISAGREE'}")
 
 
+def first_lp(start: Packing) -> tuple[tuple, dict]:
+    """The arguments of the first LP that run_calippso solves on ``start`` (the LP is built, not solved)."""
+    import spherejam.calippso.run as run_module
+
+    class Captured(Exception):
+        pass
+
+    def capture(*args, **kwargs):
+        raise Captured(args, kwargs)
+
+    solve = run_module.solve_lp
+    run_module.solve_lp = capture
+    try:
+        run_calippso(start, solver="hipo")
+    except Captured as exc:
+        return exc.args
+    finally:
+        run_module.solve_lp = solve
+    raise RuntimeError("run_calippso solved no LP")
+
+
+def time_fallback(start: Packing, reps: int = 2) -> None:
+    """The first LP of ``start`` by HiPO to the vertex tolerance; if its vertex is not certified, the fallback
+    timed both ways at any N, alternately in this process: "predicted" (primal simplex from the predicted vertex's
+    basis, the path below lp.PREDICTED_MAX_N) against "ipm" (the old fallback, a second HiPO solve with crossover,
+    the path from that N on). CPU s; the ratio is old / new of the fastest repetition."""
+    import highspy
+
+    from spherejam.calippso import lp
+
+    args, kw = first_lp(start)
+    kw = {**kw, "solver": "hipo", "crossover": False, "warm": None}
+    run, max_n = highspy.Highs.run, lp.PREDICTED_MAX_N
+    solves: list[str] = []
+
+    def timed(self):
+        cpu0 = time.process_time()
+        status = run(self)
+        info = self.getInfo()
+        solves.append(f"{self.getOptionValue('solver')[1]} {time.process_time() - cpu0:.2f} s "
+                      f"({info.ipm_iteration_count} IPM, {info.simplex_iteration_count} simplex, "
+                      f"{info.crossover_iteration_count} crossover iterations)")
+        return status
+
+    best: dict[str, float] = {}
+    sols = {}
+    highspy.Highs.run = timed
+    try:
+        for _ in range(reps):
+            for fallback in ("ipm", "predicted"):
+                lp.PREDICTED_MAX_N, solves[:] = (0 if fallback == "ipm" else math.inf), []
+                cpu0 = time.process_time()
+                sol = lp.solve_lp(*args, **kw)
+                cpu = time.process_time() - cpu0
+                if sol.method_name == "vertex":
+                    print(f"first LP ({args[0].shape[0]} rows): vertex certified, no fallback to time ({cpu:.2f} s)")
+                    return
+                best[fallback] = min(best.get(fallback, math.inf), cpu)
+                sols[fallback] = sol
+                print(f"   fallback {fallback}: {cpu:.2f} s CPU, method {sol.method}; solves: {'; '.join(solves)}")
+    finally:
+        highspy.Highs.run, lp.PREDICTED_MAX_N = run, max_n
+    old, new = sols["ipm"], sols["predicted"]
+    same = bool(np.array_equal(old.duals > 0, new.duals > 0))
+    print(f"first LP ({args[0].shape[0]} rows, N={start.n}): vertex not certified; fallback CPU s: old (ipm) "
+          f"{best['ipm']:.2f}, new (predicted) {best['predicted']:.2f}, ratio old/new "
+          f"{best['ipm'] / best['predicted']:.2f}; same active rows {same}, "
+          f"|Gamma - Gamma_old| {abs(new.inflation - old.inflation):.1e}")
+
+
 def certify_mls(n: int, seeds: list[int]) -> None:
     try:
         from spherejam.engines.closest_jamming import find_closest_jamming
@@ -171,6 +245,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mls", action="store_true", help="certify MLS outputs instead")
     ap.add_argument("--paths", nargs="+", default=["ipx+crossover", "hipo"],
                     help="LP paths solver[:threads][+crossover], the first is the reference (ipx+crossover hipo)")
+    ap.add_argument("--fallback", action="store_true",
+                    help="time the fallback of an uncertified vertex on the first LP, new path against the old")
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
@@ -194,6 +270,9 @@ def main(argv=None) -> int:
             write_packing(args.save_start, start)
     print(f"start: {label}: N={start.n} d={start.dim} phi0={start.phi:.10f} "
           f"p={start.metadata.get('reduced_pressure')}")
+    if args.fallback:
+        time_fallback(start)
+        return 0
     results = []
     for path in args.paths:
         kw = parse_path(path)

@@ -12,14 +12,16 @@ rule calippso:
     params:
         # at N = 1e4 one certification takes tens of minutes: a job cut at its time limit resumes from here
         checkpoint=PATHS.checkpoint("calippso"),
+        options=EXP.calippso_options(),
     log:
         PATHS.log("calippso"),
     benchmark:
         PATHS.benchmark("calippso")
+    threads: EXP.calippso_threads
     resources:
-        **job_resources("calippso", EXP.n),
+        **job_resources("calippso", EXP.n, threads=EXP.calippso_threads),
     group:
         "analysis"
     shell:
-        "spherejam calippso {input} --checkpoint {params.checkpoint} -o {output.packing}"
+        "spherejam calippso {input} {params.options} --checkpoint {params.checkpoint} -o {output.packing}"
         " --summary {output.summary} > {log} 2>&1"

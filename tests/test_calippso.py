@@ -390,6 +390,30 @@ def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
         assert np.all(result.history["cpu_time"] >= 0)
 
 
+def test_uncertified_vertex_falls_back_to_simplex_from_its_basis(monkeypatch, ls_jammed_256):
+    """When the interior point's vertex is not certified (forced here: the active-set solve refuses every
+    prediction), primal simplex from the predicted basis solves the LP instead of a second interior point, and the
+    run certifies the same jammed state as IPX + crossover: same contacts and rattlers, force balance <= 1e-10."""
+    import spherejam.calippso.lp as lp
+    from spherejam.calippso.solution import METHOD_CODES
+
+    old = run_calippso(ls_jammed_256, solver="ipx", crossover=True)
+    monkeypatch.setattr(lp, "solve_active_set", lambda *args, **kwargs: None)
+    starts, warm_basis = [], lp._warm_basis
+    monkeypatch.setattr(lp, "_warm_basis", lambda start, *args: starts.append(start) or warm_basis(start, *args))
+    new = run_calippso(ls_jammed_256, solver="hipo", crossover=False, warm_start=False, active_set=False)
+    methods = new.history["method"]
+    assert np.all(methods == METHOD_CODES["predicted"]) and new.counters["lp_methods"] == {
+        "predicted": new.iterations + 1}
+    assert len(starts) == new.iterations + 1  # every LP started from its predicted basis, none re-solved
+    assert_jammed(new, 3)
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in old.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, old.rattlers)
+    assert max(new.force_balance_residual, old.force_balance_residual) <= 1e-10
+    assert new.phi == pytest.approx(old.phi, abs=1e-10)
+    np.testing.assert_allclose(np.sort(new.forces), np.sort(old.forces), rtol=1e-5)
+
+
 def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
     from spherejam.calippso.lp import SOLVERS
     from spherejam.calippso.solution import SOLVER_CODES
@@ -409,3 +433,31 @@ def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
                   if a.dest == "solver")
     assert tuple(action.choices) == ("auto", *SOLVERS)
     assert set(SOLVER_CODES) == {"none", *SOLVERS}
+
+
+@pytest.mark.parametrize("bad", [0, 2.5, 257, "two"])
+def test_threads_config_key_is_validated(bad):
+    """calippso.threads reaches the rule (``--threads``, the rule's cores, cpus_per_task); a bad value is one line
+    naming calippso.threads, from the schema and from check_config alike."""
+    from pathlib import Path
+
+    import yaml
+
+    from spherejam.core.validation import check_config, validate_config
+    from spherejam.workflow.cost_model import cpus_per_task, job_resources
+    from spherejam.workflow.experiment import Experiment
+
+    root = Path(__file__).resolve().parents[1]
+    config = yaml.safe_load((root / "config" / "tiny.yaml").read_text())
+    config["calippso"]["threads"] = 2
+    exp = Experiment(validate_config(config, root / "config" / "schema.yaml"))
+    assert exp.calippso_threads == 2 and exp.calippso_options() == "--threads 2"
+    assert job_resources("calippso", exp.n, threads=exp.calippso_threads)["cpus_per_task"] == 2
+    assert cpus_per_task("mls", exp.n) == 1 and cpus_per_task("calippso", exp.n) == 1
+    config["calippso"]["threads"] = bad
+    for check in (lambda c: validate_config(c, root / "config" / "schema.yaml"), check_config):
+        with pytest.raises(InputError, match=r"calippso\.threads=") as info:
+            check(config)
+        assert "\n" not in str(info.value)
+    with pytest.raises(InputError, match=r"calippso\.threads="):
+        cpus_per_task("calippso", exp.n, bad)

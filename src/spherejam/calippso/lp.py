@@ -31,6 +31,14 @@ WARM_START_MAX_N = 4096
 #: IPM optimality tolerance of an interior-point solve whose vertex is certified instead of crossed over: tight
 #: enough that the near-active rows separate clearly from the others (docs/calippso.md §5.2).
 VERTEX_IPM_TOLERANCE = 1e-12
+#: Smallest N whose uncertified vertices fall back to a second interior point with HiGHS's crossover; below it
+#: they fall back to primal simplex from the predicted vertex's basis. From N = 4096 on that basis needed more pivots
+#: than the second solve costs, as warm starts did (docs/calippso.md §5.2); benchmarks/bench_calippso.py --fallback
+#: sets it to time both paths on one LP.
+PREDICTED_MAX_N = 4096
+#: Primal simplex pivots allowed from a predicted basis before the second interior point takes over: about the
+#: break-even with that solve at N = 1024-2048 (docs/calippso.md §5.2).
+PREDICTED_PIVOT_LIMIT = 1500
 
 
 def resolve_solver(solver: str, n: int) -> str:
@@ -173,6 +181,17 @@ def _vertex_problem(rij, sigma2, pi, pj, s, inflation, duals, lower, upper, tole
     return None
 
 
+#: HiGHS options of a simplex solve from a given basis (a warm start, or the basis a vertex predicts): primal
+#: simplex, since that basis is nearly primal feasible (its rows barely moved), and no scaling, since the rows are
+#: O(1) already and scaling made warm solves slower (docs/calippso.md §5.3).
+SIMPLEX_FROM_BASIS = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0}
+
+
+def _simplex_overrides(options: dict[str, Any] | None) -> dict[str, Any]:
+    """The user's simplex options that override :data:`SIMPLEX_FROM_BASIS`."""
+    return {k: v for k, v in (options or {}).items() if k in ("simplex_strategy", "simplex_scale_strategy")}
+
+
 def warm_pivot_limit(n: int) -> int:
     """Primal simplex pivots allowed to a warm start before interior point takes over (N particles).
 
@@ -193,9 +212,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     in a few pivots where interior point starts from scratch (docs/calippso.md §5.3). Failing that, or without
     ``warm``, a cold solve by ``solver`` (one of :data:`SOLVERS`, with ``threads`` HiGHS threads). An interior
     point is followed by HiGHS's crossover when ``crossover``; otherwise its near-active rows predict the vertex,
-    which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2), and crossover is the
-    fallback. On a non-optimal result the LP is solved once more with dual simplex (IPX after a simplex cold solve)
-    before giving up (docs/calippso.md §6).
+    which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2); the fallback is primal
+    simplex from the predicted vertex's basis (method "predicted", below N = :data:`PREDICTED_MAX_N`), then a second
+    interior point with crossover. On a non-optimal result the LP is solved once more with dual simplex (IPX after a
+    simplex cold solve) before giving up (docs/calippso.md §6).
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
@@ -237,27 +257,33 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     else:
         attempts = [("ipm", opts), ("simplex", {**opts, "solver": "simplex"})]
         if not crossover:
-            attempts.insert(0, ("vertex", {**opts, "run_crossover": "off",
-                                           "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}))
+            # below PREDICTED_MAX_N an uncertified vertex falls back to primal simplex from the basis it
+            # predicts, not to a second interior point
+            attempts[:0] = [("vertex", {**opts, "run_crossover": "off",
+                                        "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE, **(options or {})}),
+                            ("predicted", {**opts, **SIMPLEX_FROM_BASIS, **_simplex_overrides(options),
+                                           "simplex_iteration_limit": PREDICTED_PIVOT_LIMIT})]
+            if n >= PREDICTED_MAX_N:
+                del attempts[1]
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
-        # primal simplex: the carried-over vertex is nearly primal feasible (the rows barely moved)
-        # no scaling: the rows are O(1) already, and scaling made warm solves slower (docs/calippso.md §5.3). Beyond
-        # warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
+        # beyond warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
         limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
-        warm_opts = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0,
-                     "simplex_iteration_limit": limit}
-        attempts.insert(0, ("warm", {**opts, **warm_opts, **{k: v for k, v in (options or {}).items()
-                                                             if k in ("simplex_strategy", "simplex_scale_strategy")}}))
+        attempts.insert(0, ("warm", {**opts, **SIMPLEX_FROM_BASIS, "simplex_iteration_limit": limit,
+                                     **_simplex_overrides(options)}))
     failures = []
+    predicted = None  # the basis an uncertified vertex predicts
     t0 = time.perf_counter()
     for method, o in attempts:
+        start = {"warm": warm, "predicted": predicted}.get(method)
+        if method == "predicted" and start is None:
+            continue  # no vertex was predicted
         h = highspy.Highs()
         for key, val in o.items():
             if h.setOptionValue(key, val) != highspy.HighsStatus.kOk:
                 raise InputError(f"solver_options: HiGHS rejected option {key}={val!r}")
         h.passModel(lp)
-        if method == "warm" and h.setBasis(_warm_basis(warm, keys, highspy)) == highspy.HighsStatus.kError:
-            failures.append("warm: basis rejected")
+        if start is not None and h.setBasis(_warm_basis(start, keys, highspy)) == highspy.HighsStatus.kError:
+            failures.append(f"{method}: basis rejected")
             continue
         if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
             # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
@@ -268,7 +294,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                                                  highspy.HighsModelStatus.kUnbounded):
             # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
             sol = h.getSolution()
-            vertex = None
+            vertex = guess = None
             if sol.value_valid and sol.dual_valid:
                 slack = rhs - np.asarray(sol.row_value)
                 duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
@@ -280,6 +306,9 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                     vertex = solve_active_set(rij, sigma2, pi, pj, n, guess[0], guess[1], s_bound=s_bound,
                                               pinned=pinned, inflation_bounds=inflation_bounds, rattler_s=s_ipm,
                                               fixed=guess[2])
+            if guess is not None:  # the fallback's start: the predicted vertex as a HiGHS basis
+                predicted = _vertex_basis(LPSolution(s_ipm, 1.0, np.isin(keys, guess[0]).astype(float), 0.0, ""),
+                                          guess[1], guess[2], pinned, keys)
             problem = "its near-active rows are not a certified vertex" if vertex is None else _vertex_problem(
                 rij, sigma2, pi, pj, vertex.s, vertex.inflation, vertex.duals, lower[:-1].reshape(n, dim),
                 upper[:-1].reshape(n, dim), tolerance)

@@ -104,6 +104,8 @@ P_MAX = Bound(1.0, P_MAX_MAX, lo_open=True)
 SIGMA = Bound(0.0, 1.0)
 UNIT_OPEN = Bound(0.0, 1.0, lo_open=True, hi_open=True)
 SECONDS = Bound(0.0, None, lo_open=True)  # wall-time limits: > 0 (0 would stop before the first step)
+#: Threads of one job (HiGHS and HiPO's BLAS in a CALiPPSO certification).
+THREADS = Bound(1, 256, integer=True)
 INTERVAL = Bound(0.0, None)  # checkpoint and progress intervals: >= 0 seconds, 0 = at every window or iteration
 
 #: Limits by config field (also the names of the matching CLI options' values).
@@ -136,6 +138,7 @@ FIELDS: dict[str, Bound] = {
     "fast.ls_max_inverse_rate": Bound(0.0, None, lo_open=True),
     "fast.fb_max_inverse_rate": Bound(0.0, None, lo_open=True),
     "gcp_monodisperse": UNIT_OPEN,
+    "calippso.threads": THREADS,
 }
 
 #: Limits of CLI-only values.
@@ -145,7 +148,6 @@ PORE_SAMPLES = Bound(1, 1_000_000_000, integer=True)
 CALIPPSO_ITERATIONS = Bound(1, 1_000_000, integer=True)
 FB_ITERATIONS = Bound(0, 10**12, integer=True)
 OVERLAP_TOLERANCE = Bound(0.0, 1.0)
-THREADS = Bound(1, 256, integer=True)
 IMAGE_SIZE = Bound(16, 8192, integer=True)
 BOX_SIDE = Bound(0.0, None, lo_open=True)
 #: The HiGHS solvers CALiPPSO's LPs can be sent to (here, not in calippso.py, so that the CLI need not load numba).

@@ -219,11 +219,17 @@ def mem_mb(stage: str, n: int, attempt: int = 1) -> int:
     return int(math.ceil(base / 100.0) * 100) * attempt
 
 
-def cpus_per_task(stage: str, n: int) -> int:
-    """Cores of one job: every engine is single-threaded (numba without parallel loops, HiGHS IPM serial)."""
+def cpus_per_task(stage: str, n: int, threads: int = 1) -> int:
+    """Cores of one job: every engine is single-threaded (numba without parallel loops); a CALiPPSO job gets its
+    ``threads`` (config ``calippso.threads``, HiGHS and HiPO's BLAS), 1 by default."""
     _check_stage(stage)
     _check_n(n)
-    return 1
+    if stage != "calippso":
+        return 1
+    from ..core.validation import THREADS  # stdlib only, like this module
+
+    THREADS.check("calippso.threads", threads)
+    return int(threads)
 
 
 def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
@@ -238,10 +244,11 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
     )
 
 
-def job_resources(stage: str, n: int, ladder=None) -> dict:
+def job_resources(stage: str, n: int, ladder=None, threads: int = 1) -> dict:
     """The ``resources:`` of a workflow rule: time limit and memory as functions of a job's wildcards and attempt,
     and its cores. ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
-    ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard."""
+    ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard; ``threads`` are a
+    ``calippso`` job's cores (:func:`cpus_per_task`)."""
     _check_stage(stage)
 
     def runtime(wildcards, attempt):
@@ -251,7 +258,7 @@ def job_resources(stage: str, n: int, ladder=None) -> dict:
     def memory(wildcards, attempt):
         return mem_mb(stage, n, attempt)
 
-    return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, n)}
+    return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, n, threads)}
 
 
 def plan(config: dict) -> dict[str, dict[str, float]]:
