@@ -12,7 +12,6 @@ rule calippso:
     params:
         # at N = 1e4 one certification takes tens of minutes: a job cut at its time limit resumes from here
         checkpoint=PATHS.checkpoint("calippso"),
-        options=EXP.calippso_options(),
     log:
         PATHS.log("calippso"),
     benchmark:
@@ -23,5 +22,5 @@ rule calippso:
     group:
         "analysis"
     shell:
-        "spherejam calippso {input} {params.options} --checkpoint {params.checkpoint} -o {output.packing}"
+        "spherejam calippso {input} --threads {threads} --checkpoint {params.checkpoint} -o {output.packing}"
         " --summary {output.summary} > {log} 2>&1"

@@ -451,7 +451,7 @@ def test_threads_config_key_is_validated(bad):
     config = yaml.safe_load((root / "config" / "tiny.yaml").read_text())
     config["calippso"]["threads"] = 2
     exp = Experiment(validate_config(config, root / "config" / "schema.yaml"))
-    assert exp.calippso_threads == 2 and exp.calippso_options() == "--threads 2"
+    assert exp.calippso_threads == 2
     assert job_resources("calippso", exp.n, threads=exp.calippso_threads)["cpus_per_task"] == 2
     assert cpus_per_task("mls", exp.n) == 1 and cpus_per_task("calippso", exp.n) == 1
     config["calippso"]["threads"] = bad

@@ -347,10 +347,6 @@ class Experiment:
         """Cores of one CALiPPSO job (the rule's ``threads``; the schema's default is 1)."""
         return int(self.config.get("calippso", {}).get("threads", 1))
 
-    def calippso_options(self) -> str:
-        """The ``spherejam calippso`` flags of the config: ``--threads``."""
-        return f"--threads {self.calippso_threads}"
-
     # --- paths -----------------------------------------------------------------------------------------------------
     def path(self, run: Run, stage: str) -> Path:
         """File of a run: stage is a key of :data:`PACKING_FILES` (``poisson``, ``initial`` (LS/FB output),
