@@ -461,3 +461,25 @@ def test_threads_config_key_is_validated(bad):
         assert "\n" not in str(info.value)
     with pytest.raises(InputError, match=r"calippso\.threads="):
         cpus_per_task("calippso", exp.n, bad)
+
+
+def test_row_check_is_relative_to_the_pairs_sigma2():
+    # Two pairs, each exceeding its row by the same absolute e = 6.5e-9 (the reproduction run's case): for the pair of
+    # small spheres (sigma^2 = 0.13) that overlaps the step by ~2.5e-8, beyond the step's overlap guard, so the check
+    # must reject it; the pair of large spheres (sigma^2 = 1) overlaps by ~3e-9 and passes.
+    from spherejam.calippso.constraints import row_excess
+    from spherejam.calippso.lp import _vertex_problem
+
+    e = 6.5e-9
+    n = 2
+    for sigma2, rejected in ((0.13, True), (1.0, False)):
+        rij = np.array([[math.sqrt(sigma2), 0.0, 0.0]])  # touching pair at s = 0, Gamma = 1: the row holds exactly
+        pi, pj = np.array([0]), np.array([1])
+        s = np.zeros((n, 3))
+        inflation = 1.0 + e / sigma2  # sigma2 * Gamma exceeds |r|^2 by e
+        assert row_excess(rij, sigma2 * np.ones(1), pi, pj, s, inflation) == pytest.approx(e / sigma2, rel=1e-6)
+        problem = _vertex_problem(rij, sigma2 * np.ones(1), pi, pj, s, inflation, np.zeros(1), -np.ones((n, 3)),
+                                  np.ones((n, 3)), 1e-9)
+        assert (problem is not None and "row" in problem) is rejected
+        h = math.sqrt(1.0 / inflation) - 1.0  # the step's relative overlap of that pair
+        assert (-h > 1e-8) is rejected

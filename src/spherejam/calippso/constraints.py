@@ -69,7 +69,9 @@ def constraint_rows(rij, sigma2, pi, pj, n):
 
 @njit(cache=True)
 def row_excess(rij, sigma2, pi, pj, s, inflation):
-    """Largest excess over its right-hand side of a linearised row at (s, Gamma): <= 0 when all rows hold."""
+    """Largest excess of a linearised row over its right-hand side at (s, Gamma), relative to the pair's
+    sigma_ij^2: <= 0 when all rows hold. Relative, because the step's overlap check is: an absolute excess e
+    overlaps a small pair by about e / (2 sigma_ij^2) (docs/calippso.md §5.5)."""
     m, dim = rij.shape
     worst = -np.inf
     for k in range(m):
@@ -79,6 +81,7 @@ def row_excess(rij, sigma2, pi, pj, s, inflation):
         for a in range(dim):
             c = rij[k, a]
             lhs += 2.0 * c * (s[j, a] - s[i, a]) - c * c
+        lhs /= sigma2[k]
         if lhs > worst:
             worst = lhs
     return worst
