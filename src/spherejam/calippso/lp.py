@@ -162,7 +162,8 @@ def _vertex_problem(rij, sigma2, pi, pj, s, inflation, duals, lower, upper, tole
     """Check a solution HiGHS calls optimal ourselves; a description of what is wrong, or None.
 
     Primal: every row holds to 10 ``tolerance`` relative to its pair's sigma_ij^2, every bound to 10 ``tolerance``.
-    Dual: the pair forces balance (to 1e-6 of the mean force) on every displacement component strictly inside its bounds (why: docs/calippso.md §5.5).
+    Dual: the pair forces balance (to 1e-6 of the mean force) on every displacement component strictly inside its
+    bounds (why: docs/calippso.md §5.5).
     """
     excess = float(row_excess(rij, sigma2, pi, pj, s, inflation))
     if excess > 10.0 * tolerance:
