@@ -220,8 +220,8 @@ def drive(stepper: Stepper, options: RunOptions, fingerprint: str,
     if stop not in RESUMABLE_STOPS:
         ckpt.discard()
     collisions = "" if stats.collisions is None else f" collisions={stats.collisions:,}"
-    bar.update(f"done ({stop}): phi={stats.phi_final:.6f} {stepper.step_name}s={stats.steps}{collisions} "
-               f"wall={stats.wall_time:.1f} s", force=True)
+    bar.update(f"done: phi={stats.phi_final:.6f} {stepper.step_name}s={stats.steps}{collisions} "
+               f"wall={stats.wall_time:.1f} s ({stop})", force=True)
     return RunResult(packing=packing, history=stepper.history.as_arrays(), stats=stats)
 
 
