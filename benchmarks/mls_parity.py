@@ -71,7 +71,7 @@ def write_cpp_input(start, folder: Path, seed: int, initial_rate: float, factor:
     order the code scans them (Generation mode, Final contraction rate, Contraction rate decrease factor).
     """
     folder.mkdir(parents=True, exist_ok=True)
-    nominal = start.diameters / start.diameters.mean()
+    nominal = start.diameters / start.diameters.mean()  # our engine's nominal diameters (docs/mls_parity.md)
     data = np.column_stack([start.positions, nominal]).astype("<f8")
     box = float(start.box)
     tmp = folder / (pg.XYZD + ".tmp")
@@ -83,7 +83,13 @@ def write_cpp_input(start, folder: Path, seed: int, initial_rate: float, factor:
             f"Contraction rate decrease factor: {factor!r}\n")
     (folder / pg.CONF).write_text(conf)
     (folder / pg.NFO).unlink(missing_ok=True)
-    return float(np.sum(math.pi / 6.0 * nominal**3) / box**3)
+    return nominal_density(start)
+
+
+def nominal_density(start) -> float:
+    """phi of the mean-1 nominal diameters in the box: the C++ code's phi is this times r^3."""
+    nominal = start.diameters / start.diameters.mean()
+    return float(np.sum(math.pi / 6.0 * nominal**3) / start.box**3)
 
 
 # --- the two searches -------------------------------------------------------------------------------------------
@@ -126,19 +132,27 @@ def run_cpp(exe: str, folder: Path, phi_nominal: float, max_collisions: int, pol
                 except subprocess.TimeoutExpired:
                     proc.kill()
                     proc.wait()
-    cpu, wall = _child_cpu() - cpu0, time.perf_counter() - wall0
-    text = log.read_text(errors="replace")
+    return collect_cpp(folder, phi_nominal, capped, _child_cpu() - cpu0, time.perf_counter() - wall0,
+                       proc.returncode)
+
+
+def collect_cpp(folder: Path, phi_nominal: float, capped: bool = False, cpu: float | None = None,
+                wall: float | None = None, returncode: int | None = None) -> dict:
+    """The result of a C++ run from its folder (log.txt, packing.nfo). Without a measured ``cpu`` (a run whose
+    worker died before recording it) the CPU time is the nfo's ``Total Simulation Time`` (generation loop only)."""
+    text = (folder / "log.txt").read_text(errors="replace")
     cols = parse_cpp_log(text, phi_nominal)
     nfo = folder / pg.NFO
     phi_j, stop, reported_cpu = None, "capped" if capped else "error", None
     if nfo.is_file() and not capped:
-        info = {k.strip().lower(): v.strip() for k, _, v in
-                (line.partition(":") for line in nfo.read_text().splitlines()) if v}
-        phi_j = 1.0 - float(info["final porosity"])
+        info = {k.strip().lower(): v.split()[0] for k, _, v in
+                (line.partition(":") for line in nfo.read_text().splitlines()) if v.strip()}
+        phi_j = 1.0 - float(info["final porosity"])  # "0.36 (Tolerance: 1.0001)" -> "0.36"
         reported_cpu = float(info["total simulation time"])
         stop = "jammed" if "almost jammed" in text else "final_rate"
-    return {"code": "cpp", "phi_J": phi_j, "stop": stop, "capped": capped, "cpu_s": cpu, "wall_s": wall,
-            "reported_cpu_s": reported_cpu, "returncode": proc.returncode,
+    return {"code": "cpp", "phi_J": phi_j, "stop": stop, "capped": capped,
+            "cpu_s": reported_cpu if cpu is None else cpu, "cpu_source": "nfo" if cpu is None else "rusage",
+            "wall_s": wall, "reported_cpu_s": reported_cpu, "returncode": returncode,
             "collisions": int(sum(cols["collisions"])) if cols["collisions"] else None,
             "windows": len(cols["phi"]) or None, "history": cols}
 
@@ -334,7 +348,9 @@ def _done(path: Path, cap: int) -> bool:
     if not path.is_file():
         return False
     res = json.loads(path.read_text())
-    return not (res.get("capped") and res.get("max_collisions", 0) < cap)
+    if res["code"] == "ours":
+        classify(res, res["max_collisions"])
+    return not (res["capped"] and res["max_collisions"] < cap)
 
 
 def _write_json(path: Path, data: dict) -> None:
@@ -393,7 +409,9 @@ def main(argv=None) -> None:
         for code in todo:
             t = time.strftime("%H:%M:%S")
             print(f"[{t}] {cell.name} seed {seed}: {code} from phi = {start.phi:.5f}", flush=True)
-            if code == "cpp":
+            if code == "cpp" and (folder / "cpp" / pg.NFO).is_file() and (folder / "cpp" / "log.txt").is_file():
+                res = collect_cpp(folder / "cpp", nominal_density(start))  # finished, but not recorded
+            elif code == "cpp":
                 phi_nom = write_cpp_input(start, folder / "cpp", seed, args.initial_rate, args.factor, args.final_rate)
                 res = run_cpp(args.exe, folder / "cpp", phi_nom, caps[code])
             else:
