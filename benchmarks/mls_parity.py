@@ -264,6 +264,41 @@ def tests(ours: list[float], cpp: list[float]) -> str:
             f"(n = {n})")
 
 
+def _phi_cell(r: dict | None) -> str:
+    """phi_J, or for a capped search "≥ phi" at the cap (phi only grows during MLS, so it bounds phi_J)."""
+    if r is None:
+        return "–"
+    if r["phi_J"] is not None:
+        return f"{r['phi_J']:.5f}"
+    phi = (r.get("history") or {}).get("phi")
+    return f"≥ {phi[-1]:.5f}" if phi else "–"
+
+
+def censored_sign_test(pairs: list[tuple[dict, dict]]) -> str:
+    """Does our search need fewer collisions than the C++ one? Per pair, decided where possible: both finished, or
+    one capped while the other finished below that cap. A sign test on the decided pairs."""
+    fewer = more = undecided = 0
+    for o, c in pairs:
+        if o["capped"] and c["capped"]:
+            undecided += 1
+        elif c["capped"] and o["collisions"] < c["collisions"]:
+            fewer += 1
+        elif o["capped"] and c["collisions"] < o["collisions"]:
+            more += 1
+        elif not (o["capped"] or c["capped"]):
+            fewer += o["collisions"] < c["collisions"]
+            more += o["collisions"] >= c["collisions"]
+        else:
+            undecided += 1
+    n = fewer + more
+    text = f"ours needed fewer collisions in {fewer} of {n} decided pairs ({undecided} undecided)"
+    if n < MIN_PAIRS_FOR_TEST:
+        return text + f"; sign test not estimable (n = {n})"
+    from scipy import stats
+
+    return text + f"; sign test p = {stats.binomtest(fewer, n).pvalue:.3g}"
+
+
 def summarize(out: Path) -> None:
     for cell in sorted(p for p in out.iterdir() if p.is_dir()):
         pairs = []
@@ -301,7 +336,7 @@ def summarize(out: Path) -> None:
                     return "–"
                 return f"{r['stage']['unjammed']}/{r['stage']['recompressions']}"
             phi0 = (o or c or {}).get("phi_start")
-            cells = [name, "–" if phi0 is None else f"{phi0:.5f}", g(o, "phi_J", "{:.5f}"), g(c, "phi_J", "{:.5f}"),
+            cells = [name, "–" if phi0 is None else f"{phi0:.5f}", _phi_cell(o), _phi_cell(c),
                      f"{g(o, 'stop')} / {g(c, 'stop')}",
                      f"{g(o, 'collisions', '{:.3g}')} / {g(c, 'collisions', '{:.3g}')}",
                      f"{g(o, 'cpu_s', '{:.0f}')} / {g(c, 'cpu_s', '{:.0f}')}",
@@ -333,8 +368,15 @@ def summarize(out: Path) -> None:
                       + (f" = {unj / rec:.2f}" if rec else "") + f"; stages ended by our stall rule: {stalled}")
         print(f"- phi_J test: {tests([o['phi_J'] for o, _ in complete], [c['phi_J'] for _, c in complete])}")
         both = [(o, c) for o, c in complete if o.get("collisions") and c.get("collisions")]
+        print("- cost with capped searches counted as larger than their cap: "
+              + censored_sign_test([(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res]))
         print("- speed ratio per search, C++ CPU / our CPU: "
               + _median_spread([c["cpu_s"] / o["cpu_s"] for o, c in complete]))
+        bounds = [c["cpu_s"] / o["cpu_s"] for _, res in pairs if "ours" in res and "cpp" in res
+                  for o, c in [(res["ours"], res["cpp"])] if c["capped"] and not o["capped"]]
+        if bounds:
+            print("  - pairs where only the C++ search was capped (ratio >= value): "
+                  + ", ".join(f"{x:.3g}" for x in sorted(bounds)))
         print("- speed ratio per collision, (C++ CPU/collision) / (our CPU/collision): "
               + _median_spread([(c['cpu_s'] / c['collisions']) / (o['cpu_s'] / o['collisions']) for o, c in both]))
         print("- collisions per search, ours / C++: "
