@@ -49,6 +49,8 @@ P_MAX = 1e12
 MAX_EQUILIBRATION_WINDOWS = 50
 #: A compression stage "unjams" when its lowest window pressure falls below this (issue 24).
 UNJAM_PRESSURE = 1e6
+#: "Late" compression stages (issue 24: gamma <= 3e-4 with gamma_0 = 1e-2, f = 2).
+LATE_RATE = 3.2e-4
 #: Fewer complete pairs than this: tests and spreads are printed as "not estimable".
 MIN_PAIRS_FOR_TEST = 5
 _PARITY = re.compile(r"^PARITY collisions (\d+) rate (\S+) ratio (\S+) pressure (\S+) time (\S+) cpu (\S+)")
@@ -219,6 +221,8 @@ def stages(history: dict[str, list]) -> list[dict]:
 def stage_figures(result: dict) -> dict:
     """Windows per compression stage (by rate), unjammed fraction of the re-compressions, stalls."""
     st = stages(result.get("history") or {})
+    if result.get("capped"):
+        st = st[:-1]  # the stage the cap cut is unfinished
     comp = [s for s in st if s["rate"] > 0]
     later = comp[1:]  # every compression after the first starts from a (nearly) jammed state
     return {
@@ -226,6 +230,7 @@ def stage_figures(result: dict) -> dict:
         "compression_rates": [s["rate"] for s in comp],
         "equilibration_windows": [s["windows"] for s in st if s["rate"] == 0],
         "unjammed": sum(s["p_min"] < UNJAM_PRESSURE for s in later), "recompressions": len(later),
+        "late": [(s["windows"], s["p_min"] < UNJAM_PRESSURE) for s in later if s["rate"] <= LATE_RATE],
         "stalled": sum(s["p_end"] < P_MAX for s in comp[:-1]),
     }
 
@@ -299,6 +304,21 @@ def censored_sign_test(pairs: list[tuple[dict, dict]]) -> str:
     return text + f"; sign test p = {stats.binomtest(fewer, n).pvalue:.3g}"
 
 
+def fisher_line(rows: dict[str, list]) -> str:
+    """Fisher's exact test: do late stages unjam (p_min < 1e6) as often in both codes?"""
+    counts = {}
+    for code in ("ours", "cpp"):
+        late = [u for _, r in rows[code] if r.get("history", {}).get("rate") for _, u in r["stage"]["late"]]
+        counts[code] = (sum(late), len(late) - sum(late))
+    (a, b), (c, d) = counts["ours"], counts["cpp"]
+    text = f"{a} of {a + b} against {c} of {c + d}"
+    if min(a + b, c + d) < MIN_PAIRS_FOR_TEST:
+        return text + f"; not estimable (n = {a + b}, {c + d} stages)"
+    from scipy import stats
+
+    return text + f"; Fisher exact p = {stats.fisher_exact([[a, b], [c, d]]).pvalue:.3g}"
+
+
 def summarize(out: Path) -> None:
     for cell in sorted(p for p in out.iterdir() if p.is_dir()):
         pairs = []
@@ -350,24 +370,35 @@ def summarize(out: Path) -> None:
             rs = [r for _, r in rows[code]]
             done = [r for r in rs if r["phi_J"] is not None]
             capped = sum(r["capped"] for r in rs)
-            comp = [w for r in done for w in r["stage"]["compression_windows"]]
-            unj = sum(r["stage"]["unjammed"] for r in done if r.get("history", {}).get("rate"))
-            rec = sum(r["stage"]["recompressions"] for r in done if r.get("history", {}).get("rate"))
-            stalled = sum(r["stage"]["stalled"] for r in done)
+            # stage figures from every search with a history, capped ones too (without their cut stage): the
+            # capped searches are the ones with the long stages
+            traced = [r for r in rs if r.get("history", {}).get("rate")]
+            comp = [w for r in traced for w in r["stage"]["compression_windows"]]
+            unj = sum(r["stage"]["unjammed"] for r in traced)
+            rec = sum(r["stage"]["recompressions"] for r in traced)
+            stalled = sum(r["stage"]["stalled"] for r in traced)
             print(f"- {label}: phi_J {_fmt([r['phi_J'] for r in done], 5)}; capped {capped} of {len(rs)}; "
                   f"collisions/search {_fmt([r['collisions'] for r in done], 3)}; CPU s/search "
                   f"{_fmt([r['cpu_s'] for r in done], 3)}; windows/search {_fmt([r['windows'] for r in done], 3)}")
             if comp:
-                first = [r["stage"]["compression_windows"][0] for r in done if r["stage"]["compression_windows"]]
-                later = [w for r in done for w in r["stage"]["compression_windows"][1:]]
-                eq = [w for r in done for w in r["stage"]["equilibration_windows"]]
+                first = [r["stage"]["compression_windows"][0] for r in traced if r["stage"]["compression_windows"]]
+                later = [w for r in traced for w in r["stage"]["compression_windows"][1:]]
+                eq = [w for r in traced for w in r["stage"]["equilibration_windows"]]
                 print(f"  - windows per compression stage: first (gamma_0) {_fmt(first, 3)}; later stages "
                       f"median {np.median(later) if later else float('nan'):.0f}, mean {_fmt(later, 3)}; "
                       f"equilibration windows per stage {_fmt(eq, 2)}")
+                print(f"  - stage figures from {len(traced)} searches (capped ones without their cut stage)")
                 print(f"  - re-compressions that unjam below p = {UNJAM_PRESSURE:.0e}: {unj} of {rec}"
                       + (f" = {unj / rec:.2f}" if rec else "") + f"; stages ended by our stall rule: {stalled}")
+                late = [x for r in traced for x in r["stage"]["late"]]
+                if late:
+                    print(f"  - late stages (gamma <= {LATE_RATE:g}): {sum(u for _, u in late)} of {len(late)} unjam; "
+                          f"windows median {np.median([w for w, _ in late]):.0f}, mean {_fmt([w for w, _ in late], 3)}")
+        print("- late-stage unjamming, ours vs C++: " + fisher_line(rows))
         print(f"- phi_J test: {tests([o['phi_J'] for o, _ in complete], [c['phi_J'] for _, c in complete])}")
-        both = [(o, c) for o, c in complete if o.get("collisions") and c.get("collisions")]
+        # cost per collision does not need a finished search
+        both = [(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res
+                and res["ours"].get("collisions") and res["cpp"].get("collisions")]
         print("- cost with capped searches counted as larger than their cap: "
               + censored_sign_test([(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res]))
         print("- speed ratio per search, C++ CPU / our CPU: "
@@ -379,8 +410,8 @@ def summarize(out: Path) -> None:
                   + ", ".join(f"{x:.3g}" for x in sorted(bounds)))
         print("- speed ratio per collision, (C++ CPU/collision) / (our CPU/collision): "
               + _median_spread([(c['cpu_s'] / c['collisions']) / (o['cpu_s'] / o['collisions']) for o, c in both]))
-        print("- collisions per search, ours / C++: "
-              + _median_spread([o['collisions'] / c['collisions'] for o, c in both]))
+        print("- collisions per search, ours / C++ (complete pairs): "
+              + _median_spread([o["collisions"] / c["collisions"] for o, c in complete]))
 
 
 # --- driver ----------------------------------------------------------------------------------------------------------
