@@ -13,16 +13,19 @@ rate), given to both codes:
   (collisions, rate, scale factor, pressure) need a binary that prints, once per window, a line
   ``PARITY collisions C rate G ratio R pressure P time T cpu S``; a stock binary gives phi_J, stop and CPU only.
 
-Both searches are cut at ``--max-collisions-per-particle`` x N collisions (ours: ``max_collisions``, deterministic;
-the C++ run: SIGINT once its log passes the same count) and recorded as ``capped``. CPU seconds per search are
-measured here: ``time.process_time`` around our call (after a warm-up search, so no compilation is charged), and
-the child's user + system time (``resource.getrusage(RUSAGE_CHILDREN)``) for the C++ process.
+Searches are cut at a number of collisions and recorded as ``capped``: the C++ run at
+``--max-collisions-per-particle`` x N (SIGINT once its log passes that count, so it needs the PARITY lines), ours at
+``--ours-max-collisions-per-particle`` x N (``max_collisions``: deterministic; default the C++ cap). A capped result
+is redone by a later call with a higher cap; the summary shows phi at the cap as a lower bound of phi_J and counts
+a capped search as costlier than its cap. CPU seconds per search are measured here: ``time.process_time`` around
+our call (after a warm-up search, so no compilation is charged), and the child's user + system time
+(``resource.getrusage(RUSAGE_CHILDREN)``) for the C++ process.
 
 One JSON file per pair and code (``OUT/<cell>/pair-SSSS/{ours,cpp}.json``, written atomically); a rerun skips what is
 done, so the command is resumable. ``--summarize`` prints the table of every cell in OUT (docs/mls_parity.md).
 
-    nice -n 15 python benchmarks/mls_parity.py --out /tmp/parity --exe /tmp/pg/PackingGeneration.exe \\
-        --n 500 --sigma 0 --pairs 10
+    nice -n 15 python benchmarks/mls_parity.py --out /tmp/parity --exe <PackingGeneration.exe> \\
+        --n 500 --sigma 0 --pairs 10 --ours-max-collisions-per-particle 1e6
     python benchmarks/mls_parity.py --out /tmp/parity --summarize
 """
 
