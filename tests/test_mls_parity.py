@@ -95,3 +95,18 @@ def test_tests_need_enough_pairs():
     line = mp.tests(a, [x + 0.01 for x in a])  # a clear shift: both tests must see it
     p_values = [float(part.split("p = ")[1].split()[0].rstrip(";")) for part in line.split("; ")[1:]]
     assert all(pv < 0.01 for pv in p_values) and math.isfinite(p_values[0])
+
+
+def test_censored_comparisons_use_the_cap_as_a_bound():
+    def run(phi, capped, collisions, phi_last=None):
+        return {"phi_J": None if capped else phi, "capped": capped, "collisions": collisions,
+                "history": {"phi": [0.60, phi_last if capped else phi]}}
+    pairs = [
+        (run(0.630, False, 10), run(0.640, False, 20)),         # both finished: ours lower, cheaper
+        (run(0.630, False, 50), run(None, True, 40, 0.635)),    # C++ capped above ours: ours lower (phi_J_C++ >= 0.635)
+        (run(0.640, False, 50), run(None, True, 40, 0.635)),    # C++ capped below ours: undecided
+        (run(None, True, 90, 0.632), run(0.631, False, 30)),    # ours capped above the C++ phi_J: ours higher
+    ]
+    assert mp.censored_phi_sign_test(pairs).startswith("ours lower in 2, higher in 1 of 3 decided pairs (1 undecided)")
+    # cost: pair 2 and 3 are undecided (the capped C++ stopped below our count), pair 4 ours costlier
+    assert mp.censored_sign_test(pairs).startswith("ours needed fewer collisions in 1 of 2 decided pairs (2 undecided)")
