@@ -6,7 +6,7 @@ gap of a periodic line, each with a free length f·L on both sides. The line fra
 the volume fraction phi_RCP. The method section of that paper was not available to us: this module is our
 **reconstruction** of the algorithm, validated against Farr's (2013) published single-lognormal formula
 (:func:`farr2013_lognormal`, agreement <= 4e-4 for s <= 1.25) and against the exact bidisperse limits at infinite
-size ratio. ``docs/farr_groot.md`` describes the method and its checks.
+size ratio. docs/farr_groot.md describes the method and its checks.
 
 Conventions: ``sigma`` is the project's (and the paper's) polydispersity, the relative standard deviation of the
 diameter D of a log-normal distribution; Farr's ``s`` is the standard deviation of ln D, s = sqrt(ln(1 + sigma^2)).

@@ -1,7 +1,7 @@
 """CALiPPSO: jam a hard-sphere packing by iterative linear programming, with contact forces from the LP duals.
 
 Artiaco, Díaz Hernández Rojas, Parisi, Ricci-Tersenghi, Phys. Rev. E 106, 055310 (2022), following the reference code
-CALiPPSO.jl v0.2.2 with the deviations listed in ``docs/calippso.md`` (cited as "docs §x").
+CALiPPSO.jl v0.2.2 with the deviations listed in docs/calippso.md (cited as "docs §x").
 
 :func:`run_calippso` is the driver. Each iteration takes the cutoff l, the bound s_bound and Gamma_max from
 :mod:`.schedule` (docs §1.3-§1.6), builds the pair rows (:mod:`.constraints`), solves the LP (:mod:`.lp`, or from the

@@ -1,6 +1,6 @@
 """The closest jammed configuration of a packing: the paper's modified Lubachevsky–Stillinger (MLS) search.
 
-Paper §III.B (``docs/algorithms.md`` §3). From any packing (rescaled so that its closest pair touches), with fresh
+Paper §III.B (docs/algorithms.md §3). From any packing (rescaled so that its closest pair touches), with fresh
 Maxwell–Boltzmann velocities at T = 0.2:
 
 1. compress with LS at the initial rate gamma_0 (10) until the reduced pressure of a window (20 events per

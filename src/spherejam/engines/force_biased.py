@@ -1,5 +1,5 @@
 """The force-biased (FB) packing algorithm (Mościński et al. 1989; Bezrukov, Bargieł & Stoyan 2002), as the paper
-applies it (``docs/algorithms.md`` §4).
+applies it (docs/algorithms.md §4).
 
 Every sphere i has a fixed nominal diameter D_i, scaled so that the spheres fill ``phi_nominal`` of the box, and two
 global scale factors:
@@ -65,7 +65,7 @@ def nominal_density_for_rate(rate) -> float:
     The straight line in the (ln gamma, phi) plane through (1e-3, 0.6) and (1e-7, 0.7), extrapolated linearly:
     ``0.6 + 0.1 * (ln gamma - ln 1e-3) / (ln 1e-7 - ln 1e-3)`` (0.55 at 1e-1, 0.65 at 1e-5). The formula printed in
     the reference README has the sign of the numerator flipped (it would give 0.5 at 1e-7); its own sentence, a line
-    through those two points, is what is implemented here (``docs/algorithms.md`` §4.5).
+    through those two points, is what is implemented here (docs/algorithms.md §4.5).
     """
     rate = _check_rate(rate)
     (g1, p1), (g2, p2) = RULE_POINTS

@@ -1,6 +1,6 @@
 """Lubachevsky–Stillinger (LS) compression: event-driven MD of hard spheres whose diameters grow linearly in time.
 
-Physics (paper §III.B; ``docs/algorithms.md`` §2). Mass m = 1, k_B = 1, temperature T = 0.2 (rms speed sqrt(3 T)).
+Physics (paper §III.B; docs/algorithms.md §2). Mass m = 1, k_B = 1, temperature T = 0.2 (rms speed sqrt(3 T)).
 Diameters are D_i(t) = D_i0 (rho0 + gamma t): D_i0 are the nominal diameters (the input's actual diameters divided
 by their mean, so mean 1 in the box's length unit), rho0 starts at the input's closest-pair ratio (the closest pair
 touches) and gamma = d rho/dt is the compression rate (per unit time). Collisions are elastic in the frame of the
