@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
-import numbers
 import os
 import time
 from collections.abc import Mapping
@@ -21,8 +19,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_output
-from .errors import PackingFileError, require
+from .errors import PackingFileError
 from .packing_io import dumps
+from .validation import INTERVAL
 
 if TYPE_CHECKING:
     from .packing import Packing
@@ -46,8 +45,7 @@ class Checkpoint:
     ``interval`` (s, >= 0; 0 saves after every window) is the time between periodic saves."""
 
     def __init__(self, path: str | os.PathLike | None, kind: str, fingerprint: str, interval: float):
-        require(isinstance(interval, numbers.Real) and not isinstance(interval, bool) and math.isfinite(interval)
-                and interval >= 0, "checkpoint_interval", interval, "must be a number >= 0 (seconds)")
+        INTERVAL.check("checkpoint_interval", interval)
         self.path = Path(path) if path is not None else None
         self.kind = kind
         self.fingerprint = fingerprint

@@ -15,8 +15,6 @@ An engine supplies a :class:`Stepper` (LS/MLS: one pressure window under a rate 
 from __future__ import annotations
 
 import logging
-import math
-import numbers
 import os
 import time
 from abc import ABC, abstractmethod
@@ -28,7 +26,7 @@ import numpy as np
 
 from ..core import progress
 from ..core.checkpoint import Checkpoint
-from ..core.errors import require
+from ..core.validation import INTERVAL, SECONDS
 from ..core.packing import Packing
 from .result import RESUMABLE_STOPS, Extras, RunResult, RunStats, is_completed
 
@@ -72,15 +70,6 @@ class History:
         return {k: np.asarray(v) for k, v in self._rows.items()}
 
 
-def _seconds(name: str, value, allow_none: bool, allow_zero: bool) -> None:
-    if value is None and allow_none:
-        return
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
-    ok = ok and (value >= 0 if allow_zero else value > 0)
-    rule = ("a number >= 0" if allow_zero else "a number > 0") + " (seconds)"
-    require(ok, name, value, f"must be {'None or ' if allow_none else ''}{rule}")
-
-
 @dataclass(frozen=True)
 class RunOptions:
     """The run options every engine takes, checked here (``checkpoint_interval`` by the checkpoint protocol,
@@ -103,8 +92,9 @@ class RunOptions:
     progress_interval: float = 10.0
 
     def __post_init__(self):
-        _seconds("max_wall_time", self.max_wall_time, allow_none=True, allow_zero=False)
-        _seconds("progress_interval", self.progress_interval, allow_none=False, allow_zero=True)
+        if self.max_wall_time is not None:
+            SECONDS.check("max_wall_time", self.max_wall_time)
+        INTERVAL.check("progress_interval", self.progress_interval)
 
 
 class Stepper(ABC):
