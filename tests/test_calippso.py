@@ -483,3 +483,59 @@ def test_row_check_is_relative_to_the_pairs_sigma2():
         assert (problem is not None and "row" in problem) is rejected
         h = math.sqrt(1.0 / inflation) - 1.0  # the step's relative overlap of that pair
         assert (-h > 1e-8) is rejected
+
+
+def test_basis_inverse_tracks_row_replacements_like_a_fresh_lu():
+    """The product-form updates solve, and transposed solve, as a fresh factorisation of the replaced rows does,
+    across a refactorisation (more replacements than REFACTOR_EVERY)."""
+    from scipy.sparse import random as sparse_random, identity, vstack
+
+    from spherejam.calippso import active_set
+
+    rng = np.random.default_rng(3)
+    n = 40
+    base = (identity(n) * 4.0 + sparse_random(n, n, density=0.1, random_state=rng)).tocsr()
+    extra = (sparse_random(3 * n, n, density=0.15, random_state=rng) + 0.0).tocsr()
+    matrix = vstack([base, extra + identity(n, format="csr")[rng.integers(0, n, 3 * n)] * 3.0]).tocsr()
+    basis = np.arange(n)
+    binv = active_set.BasisInverse(matrix, basis.copy())
+    b = rng.normal(size=n)
+    replaced = 0
+    while replaced < active_set.REFACTOR_EVERY + 7:
+        k = int(rng.integers(0, n))
+        row = int(rng.integers(n, matrix.shape[0]))
+        if row in binv.basis:
+            continue
+        trial = binv.basis.copy()
+        trial[k] = row
+        dense = matrix[trial].toarray()
+        if abs(np.linalg.det(dense / 4.0)) < 1e-6:
+            continue  # keep the test away from nearly singular bases
+        binv.replace(k, row)
+        replaced += 1
+        assert np.array_equal(binv.basis, trial)
+        np.testing.assert_allclose(dense @ binv.solve(b), b, atol=1e-9)
+        np.testing.assert_allclose(dense.T @ binv.solve_transposed(b), b, atol=1e-9)
+    assert len(binv.updates) == 7  # refactorised once, on the REFACTOR_EVERY-th replacement
+
+
+def test_rattlers_are_placed_by_a_feasibility_lp_when_pushing_fails():
+    """A rattler between two fixed neighbours on a line: from a place that violates one row, the small LP puts it
+    where both rows hold (and moves nothing else); a cage too small for it is reported, not papered over."""
+    from spherejam.calippso.active_set import _place_rattlers
+
+    # particle 1 (rattler) between 0 and 2 on a line, all diameters 1: r_ij = x_i - x_j for the pairs (0,1), (1,2)
+    rij = np.array([[-1.05, 0.0, 0.0], [-1.05, 0.0, 0.0]])
+    sigma2 = np.ones(2)
+    pi, pj = np.array([0, 1]), np.array([1, 2])
+    rattler = np.array([False, True, False])
+    s = np.zeros((3, 3))
+    s[1, 0] = -0.06  # too close to 0: row (0, 1) violated
+    assert np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj]))[0] < 1.0
+    assert _place_rattlers(rij, sigma2, pi, pj, s, 1.0, rattler, 0.1, 1e-12)
+    slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - sigma2
+    assert np.all(slack >= 1e-12) and np.all(np.abs(s) <= 0.1)
+    assert np.array_equal(s[[0, 2]], np.zeros((2, 3)))  # only the rattler moved
+    s = np.zeros((3, 3))
+    s[0, 0], s[2, 0] = 0.06, -0.06  # the walls closed in: 2.1 - 0.12 < 2 diameters, no room
+    assert not _place_rattlers(rij, sigma2, pi, pj, s, 1.0, rattler, 0.1, 1e-12)

@@ -59,32 +59,156 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     return np.sort(pi[top] * n + pj[top]), rattler, fixed
 
 
+#: Pivots an active-set solve may take where HiGHS has no warm start to offer (an interior point's vertex; every LP
+#: from N = 4096 on): each costs three sparse solves, a small fraction of an interior-point solve, and a prediction
+#: is seldom off by more than ~100 rows (docs/calippso.md §5.2). With a warm start at hand, 10 (the default).
+MAX_PIVOTS = 500
+#: Duals above -DUAL_ZERO x their median magnitude count as >= 0 (round-off of an exactly zero force).
+DUAL_ZERO = 1e-12
+#: Primal pivots by the steepest dual before Bland's rule takes over (which cannot cycle on a degenerate vertex).
+BLAND_AFTER = 50
+#: Row replacements between two factorisations of the basis matrix (BasisInverse): each adds two vectors to every
+#: later solve, so a fresh LU pays off after a few dozen.
+REFACTOR_EVERY = 50
+
+
+class BasisInverse:
+    """Solves with the square matrix of the rows ``basis`` of ``matrix`` (sparse, CSR), while rows are replaced.
+
+    One sparse LU, then the product form of the inverse: replacing row k by a row that differs by v is the rank-one
+    change B' = B + e_k v^T, whose inverse Sherman-Morrison gives from B's with c = B^-1 e_k, w = B^-T v and
+    delta = 1 + v.c. A pivot then costs three solves instead of a factorisation; every :data:`REFACTOR_EVERY`
+    replacements the current rows are factorised afresh. Raises RuntimeError when the matrix is singular.
+    """
+
+    def __init__(self, matrix, basis: np.ndarray):
+        self.matrix, self.basis = matrix, basis
+        self._factorise()
+
+    def _factorise(self) -> None:
+        from scipy.sparse.linalg import splu
+
+        self.lu = splu(self.matrix[self.basis].tocsc())
+        self.updates: list[tuple[np.ndarray, np.ndarray, np.ndarray, float]] = []  # (c, v, w, delta)
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """x with B x = b."""
+        x = self.lu.solve(b)
+        for c, v, _, delta in self.updates:
+            x = x - c * (float(v @ x) / delta)
+        return x
+
+    def solve_transposed(self, b: np.ndarray) -> np.ndarray:
+        """y with B^T y = b."""
+        y = self.lu.solve(b, trans="T")
+        for c, _, w, delta in self.updates:
+            y = y - w * (float(c @ b) / delta)
+        return y
+
+    def replace(self, k: int, row: int) -> None:
+        """Put row ``row`` of the matrix in place of basis position ``k``."""
+        v = (self.matrix[row] - self.matrix[self.basis[k]]).toarray().ravel()
+        e_k = np.zeros(self.basis.size)
+        e_k[k] = 1.0
+        c = self.solve(e_k)
+        delta = 1.0 + float(v @ c)
+        if not abs(delta) > 1e-12 * max(1.0, float(np.max(np.abs(c)))):
+            raise RuntimeError("singular basis after a row replacement")
+        w = self.solve_transposed(v)
+        self.basis[k] = row
+        if len(self.updates) + 1 >= REFACTOR_EVERY:
+            self._factorise()
+        else:
+            self.updates.append((c, v, w, delta))
+
+
+def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin) -> bool:
+    """Move the rattlers' s (in place) so that every row with a rattler holds with ``margin``; False if impossible.
+
+    The stable particles and Gamma are fixed, so the rows are linear in the rattlers' s alone: a small LP (no
+    objective) over the rattlers' components within the s bounds, solved by HiGHS's dual simplex.
+    """
+    import highspy
+
+    n, dim = s.shape
+    rows = np.flatnonzero(rattler[pi] | rattler[pj])
+    movers = np.flatnonzero(rattler)
+    col = np.full(n, -1, dtype=np.int64)
+    col[movers] = np.arange(movers.size)
+    r = rij[rows]
+    # |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 >= margin; the stable end's term moves to the bound
+    fixed_i = np.where(rattler[pi[rows]], 0.0, 1.0)[:, None] * s[pi[rows]]
+    fixed_j = np.where(rattler[pj[rows]], 0.0, 1.0)[:, None] * s[pj[rows]]
+    lower = margin + inflation * sigma2[rows] - np.einsum("ij,ij->i", r, r + 2.0 * (fixed_i - fixed_j))
+    entries_r, entries_c, entries_v = [], [], []
+    for end, sign in ((pi[rows], 2.0), (pj[rows], -2.0)):
+        moving = rattler[end]
+        for axis in range(dim):
+            entries_r.append(np.flatnonzero(moving))
+            entries_c.append(col[end[moving]] * dim + axis)
+            entries_v.append(sign * r[moving, axis])
+    from scipy.sparse import csr_matrix
+
+    a = csr_matrix((np.concatenate(entries_v), (np.concatenate(entries_r), np.concatenate(entries_c))),
+                   shape=(rows.size, movers.size * dim))
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = movers.size * dim, rows.size
+    lp.col_cost_ = np.zeros(movers.size * dim)
+    lp.col_lower_ = np.full(movers.size * dim, -s_bound)
+    lp.col_upper_ = np.full(movers.size * dim, s_bound)
+    lp.row_lower_ = lower
+    lp.row_upper_ = np.full(rows.size, highspy.kHighsInf)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = movers.size * dim, rows.size
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = a.indptr, a.indices, a.data
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("solver", "simplex")
+    h.setOptionValue("threads", 1)
+    h.passModel(lp)
+    h.run()
+    if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+        return False
+    s[movers] = np.asarray(h.getSolution().col_value).reshape(movers.size, dim)
+    return True
+
+
+def _fail(why: list[str] | None, reason: str) -> None:
+    if why is not None:
+        why.append(reason)
+    return None
+
+
 def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
-                     feasibility=1e-12, max_pivots=None, rattler_s=None, fixed=None) -> LPSolution | None:
+                     feasibility=1e-12, max_pivots=None, rattler_s=None, fixed=None,
+                     why: list[str] | None = None) -> LPSolution | None:
     """Solve the LP from a predicted active set by primal simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
     ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
     non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
     transpose, the duals. While a dual is negative, that contact is released along the edge that keeps the others
-    tight and the first pair row to close enters (the primal simplex method with the exact ratio test; every
-    pivot refactorises). The vertex is returned only when it is *certified optimal*: all duals > 0, all rows and
-    bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e. primal and dual feasible with complementary
-    slackness. Rattlers start from ``rattler_s`` ((N, d), e.g. an interior point, whose rattlers sit inside their
-    cages; default 0) and are pushed out of rows they violate. ``fixed`` ((N, d) of -1 / 0 / +1) predicts s
-    components of stable particles held at their lower / upper s bound: they leave the unknowns (one contact fewer
-    each), and their bound multipliers must come out >= 0, else None (bounds never pivot). Anything else -- a
-    rattler joining the network, another active s or a Gamma bound, a singular system, more than ``max_pivots``
-    pivots -- returns None and the caller solves the LP with HiGHS. Near convergence the active set barely
-    changes, and this replaces a HiGHS solve by a few factorisations (docs/calippso.md §5.4).
+    tight and the first pair row to close enters (the primal simplex method with the exact ratio test). A
+    prediction that violates other rows while its duals are >= 0 is first repaired by dual simplex pivots (the most
+    violated row enters, the dual ratio test picks the row that leaves). Every pivot updates the basis matrix's LU
+    (:class:`BasisInverse`). The vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one
+    is a contact without force, at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``,
+    absolute, sigma^2 units), i.e. primal and dual feasible with complementary slackness. Rattlers start from
+    ``rattler_s`` ((N, d), e.g. an interior point, whose rattlers sit inside their cages; default 0) and are pushed
+    out of rows they violate, or placed by a small LP when pushing does not settle them. ``fixed`` ((N, d) of -1 / 0
+    / +1) predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns
+    (one contact fewer each), and their bound multipliers must come out >= 0, else None (bounds never pivot).
+    Anything else -- a rattler joining the network, another active s or a Gamma bound, a singular system, more than
+    ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reason is appended to ``why``
+    (a list, if given), for the LP's failure log. Near convergence the active set barely changes, and this replaces
+    a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
     """
     from scipy.sparse import csr_matrix
-    from scipy.sparse.linalg import splu
 
     t0 = time.perf_counter()
     dim = rij.shape[1]
     if rattler[pinned]:
-        return None
+        return _fail(why, "the pinned particle is predicted a rattler")
     free = ~rattler
     free[pinned] = False
     fixed = np.zeros((n, dim), dtype=np.int8) if fixed is None else np.where(free[:, None], fixed, 0).astype(np.int8)
@@ -94,8 +218,8 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     col_of[:-1][free_comp] = np.arange(np.count_nonzero(free_comp))
     nu = int(np.count_nonzero(free_comp)) + 1
     col_of[-1] = nu - 1
-    if contact_keys.size != nu:
-        return None  # not isostatic: no square system
+    if contact_keys.size != nu:  # not isostatic: no square system
+        return _fail(why, f"{contact_keys.size} predicted contacts for {nu} unknowns")
     # the rows among stable particles, in the reduced columns (pinned particle and fixed components dropped)
     stable_rows = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     start, index, value, rhs = constraint_rows(rij[stable_rows], sigma2[stable_rows], pi[stable_rows],
@@ -109,50 +233,77 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         rhs = rhs - np.bincount(row_id[held], weights=value[held] * s_fixed[index][held], minlength=rhs.size)
     key = pi[stable_rows] * n + pj[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
-    if basis.size != nu:
-        return None  # a predicted contact left the cutoff or involves a particle that is now a rattler
+    if basis.size != nu:  # a predicted contact left the cutoff or involves a particle that is now a rattler
+        return _fail(why, f"{nu - basis.size} predicted contacts are not rows among stable particles")
     if max_pivots is None:
-        max_pivots = 10  # each pivot refactorises; beyond a few, HiGHS is cheaper
+        max_pivots = 10
     e_inflation = np.zeros(nu)
     e_inflation[-1] = 1.0
+    try:
+        binv = BasisInverse(a_all, basis)
+    except RuntimeError:
+        return _fail(why, "singular contact system")
     for pivot in range(max_pivots + 1):
-        try:
-            lu = splu(a_all[basis].tocsc())
-        except RuntimeError:  # singular
-            return None
-        u = lu.solve(rhs[basis])
-        lam = lu.solve(e_inflation, trans="T")
+        u = binv.solve(rhs[basis])
+        lam = binv.solve_transposed(e_inflation)
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):
-            return None
+            return _fail(why, f"non-finite solution after {pivot} pivots")
         slack = rhs - a_all @ u
-        if pivot == 0:
-            in_basis = np.zeros(stable_rows.size, dtype=bool)
-            in_basis[basis] = True
-            if np.min(slack[~in_basis], initial=0.0) < -feasibility:
-                return None  # the predicted vertex is not feasible at the new positions
         lo, hi = inflation_bounds
         if np.max(np.abs(u[:-1]), initial=0.0) > s_bound or not (lo - 1e-13 <= u[-1] <= hi):
-            return None
+            return _fail(why, f"an s or Gamma bound is violated after {pivot} pivots")
+        slack[basis] = 0.0
+        r = int(np.argmin(slack))
+        if slack[r] < -feasibility:
+            # a predicted vertex beyond some other row (a degenerate interior point ranks a few rows wrongly): dual
+            # simplex pivots while the duals are feasible, the most violated row entering
+            violated = int(np.count_nonzero(slack < -feasibility))
+            if np.min(lam) < 0.0:
+                return _fail(why, f"the vertex after {pivot} pivots violates {violated} other rows (worst "
+                                  f"{slack[r]:.1e}) and {int(np.count_nonzero(lam < 0.0))} duals are negative")
+            if pivot == max_pivots:
+                return _fail(why, f"{violated} rows still violated after {max_pivots} pivots")
+            # leaving row k: Gamma falls by lam_k per unit of row k's slack, row r closes at alpha_k per unit
+            alpha = binv.solve_transposed(a_all[r].toarray().ravel())
+            candidates = np.flatnonzero(alpha > 1e-14)
+            if candidates.size == 0:
+                return _fail(why, f"a violated row cannot be satisfied after {pivot} pivots: the LP looks infeasible")
+            k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
+            try:
+                binv.replace(k, r)
+            except RuntimeError:
+                return _fail(why, f"singular contact system after {pivot + 1} pivots")
+            continue
         k = int(np.argmin(lam))
-        if lam[k] > 0.0:
+        # optimal once no dual is negative; an exact (round-off) zero is a contact without force at a degenerate
+        # optimum, which no pivot improves
+        zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+        if lam[k] >= -zero:
             break
+        if pivot >= BLAND_AFTER:  # a degenerate vertex can cycle: Bland's rule, the lowest row index leaves
+            negative = np.flatnonzero(lam < -zero)
+            k = int(negative[np.argmin(basis[negative])])
         if pivot == max_pivots:
-            return None
+            return _fail(why, f"{int(np.count_nonzero(lam < -zero))} duals still negative (lowest {lam[k]:.1e} of a "
+                              f"median {float(np.median(lam)):.1e}) after {max_pivots} pivots")
         # release row basis[k]: direction d with A_B d = -e_k; Gamma grows at rate -lam_k > 0
         e_k = np.zeros(nu)
         e_k[k] = -1.0
-        d = lu.solve(e_k)
+        d = binv.solve(e_k)
         rate = a_all @ d
         rate[basis] = 0.0
         blocking = np.flatnonzero(rate > 1e-14)
-        if blocking.size == 0:
-            return None  # unbounded edge: only the s bounds stop it
+        if blocking.size == 0:  # unbounded edge: only the s bounds stop it
+            return _fail(why, f"an unbounded edge after {pivot} pivots")
         ratios = np.maximum(slack[blocking], 0.0) / rate[blocking]
-        j = int(np.argmin(ratios))
+        j = int(np.argmin(ratios))  # ties: the lowest row index (blocking is sorted), as Bland's rule wants
         step = ratios[j]
         if np.max(np.abs(u[:-1] + step * d[:-1]), initial=0.0) > s_bound:
-            return None  # an s bound would block first
-        basis[k] = blocking[j]
+            return _fail(why, f"an s bound blocks pivot {pivot + 1}")
+        try:
+            binv.replace(k, blocking[j])
+        except RuntimeError:
+            return _fail(why, f"singular contact system after {pivot + 1} pivots")
     if np.any(held):
         # bound multipliers: mu = -(A^T lambda)_j at an upper bound, +(A^T lambda)_j at a lower one, both >= 0
         row_lam = np.zeros(stable_rows.size)
@@ -161,7 +312,7 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
         comps = np.flatnonzero(fixed.ravel())
         if np.any(-fixed.ravel()[comps] * at[comps] < 0.0):
-            return None
+            return _fail(why, "a held s component has a negative bound multiplier")
     inflation = max(float(u[-1]), inflation_bounds[0])
     s = np.zeros((n, dim)) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
     s[pinned] = 0.0
@@ -177,17 +328,19 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         if not np.any(bad):
             break
         if np.any(bad & ~rattler[pi] & ~rattler[pj] & (slack < -feasibility)):
-            return None
+            return _fail(why, "a row among stable particles is violated at the vertex")
         for k in np.flatnonzero(bad & (rattler[pi] | rattler[pj])):
             push = 2.0 * (feasibility - slack[k]) / (2.0 * float(np.dot(rij[k], rij[k])))
             if rattler[pi[k]]:
                 s[pi[k]] += push * rij[k]
             else:
                 s[pj[k]] -= push * rij[k]
-    else:
-        return None
-    if np.min(slack[~active], initial=0.0) < -feasibility or np.max(np.abs(s)) > s_bound:
-        return None
+    else:  # a rattler pushed back and forth in a tight cage: place the rattlers by a small feasibility LP
+        if not _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, 2.0 * feasibility):
+            return _fail(why, "no feasible place for the rattlers at the vertex")
+        slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+    if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
+        return _fail(why, "a row or an s bound is violated at the vertex")
     duals = np.zeros(len(pi))
-    duals[stable_rows[basis]] = lam
+    duals[stable_rows[basis]] = np.maximum(lam, 0.0)
     return LPSolution(s, inflation, duals, time.perf_counter() - t0, f"active-set+{pivot}")

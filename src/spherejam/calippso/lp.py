@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.errors import InputError, SimulationError, require
 from ..core.validation import LP_SOLVERS
-from .active_set import interior_point_prediction, solve_active_set
+from .active_set import MAX_PIVOTS, interior_point_prediction, solve_active_set
 from .constraints import constraint_rows, particle_force_sums, row_excess
 from .solution import LPBasis, LPSolution
 
@@ -296,6 +296,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
             sol = h.getSolution()
             vertex = guess = None
+            why: list[str] = []
             if sol.value_valid and sol.dual_valid:
                 slack = rhs - np.asarray(sol.row_value)
                 duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
@@ -306,13 +307,17 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                     guess[2][pinned] = 0
                     vertex = solve_active_set(rij, sigma2, pi, pj, n, guess[0], guess[1], s_bound=s_bound,
                                               pinned=pinned, inflation_bounds=inflation_bounds, rattler_s=s_ipm,
-                                              fixed=guess[2])
+                                              fixed=guess[2], max_pivots=MAX_PIVOTS, why=why)
+                else:
+                    why.append("no isostatic prediction")
             if guess is not None:  # the fallback's start: the predicted vertex as a HiGHS basis
                 predicted = _vertex_basis(LPSolution(s_ipm, 1.0, np.isin(keys, guess[0]).astype(float), 0.0, ""),
                                           guess[1], guess[2], pinned, keys)
-            problem = "its near-active rows are not a certified vertex" if vertex is None else _vertex_problem(
-                rij, sigma2, pi, pj, vertex.s, vertex.inflation, vertex.duals, lower[:-1].reshape(n, dim),
-                upper[:-1].reshape(n, dim), tolerance)
+            if vertex is None:
+                problem = f"its near-active rows are not a certified vertex ({'; '.join(why) or 'no valid solution'})"
+            else:
+                problem = _vertex_problem(rij, sigma2, pi, pj, vertex.s, vertex.inflation, vertex.duals,
+                                          lower[:-1].reshape(n, dim), upper[:-1].reshape(n, dim), tolerance)
             if problem is None:
                 vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]

@@ -15,6 +15,7 @@ positions for the forces (docs §2.3). Checkpoints: docs §7.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass, field
@@ -29,12 +30,14 @@ from ..core.errors import OverlapError, SimulationError, require
 from ..core.neighbours import pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..engines.driver import History, Progress
-from .active_set import network_prediction, solve_active_set
+from .active_set import MAX_PIVOTS, network_prediction, solve_active_set
 from .constraints import pair_vectors, pairs_in_cutoff
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .network import contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
 from .solution import LPBasis, METHOD_CODES, SOLVER_CODES
+
+_log = logging.getLogger("spherejam")
 
 #: Largest correction of sqrt(Gamma) tolerated for solver round-off before the step is declared broken (docs §1.8).
 MAX_OVERLAP_CORRECTION = 1e-8
@@ -349,10 +352,14 @@ def run_calippso(
         # shortcut only when there is no basis to start from
         if loop.predicted is not None and (loop.basis is None or regime == 1):
             t_try = time.perf_counter()
+            why: list[str] = []
             sol = solve_active_set(rij, sigma2, pi, pj, n, *loop.predicted, s_bound=sb, pinned=loop.pinned,
-                                   inflation_bounds=(1.0, inflation_max))
+                                   inflation_bounds=(1.0, inflation_max), why=why,
+                                   max_pivots=MAX_PIVOTS if loop.basis is None else None)
             if sol is None:
                 lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
+                _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
+                           iteration + 1, "; ".join(why))
         if sol is None:
             warm = loop.basis if regime > 1 and loop.warm_skip == 0 else None
             loop.warm_skip = max(loop.warm_skip - 1, 0)
@@ -406,6 +413,8 @@ def run_calippso(
             f"LP {sol.solve_time:.2f} s ({sol.method}, {sol.solver})",
             fields={"LP": iteration, "√Γ-1": sqrt_inflation - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
         )
+        if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
+            _log.info("calippso it %d solved by %s after: %s", iteration, sol.method, sol.failed)
         last = (rij, sigma2, pi, pj, sol, rattler)
         loop.bound_hit = bool(np.any(~rattler)) and float(np.max(np.abs(sol.s[~rattler]))) >= (1.0 - 1e-9) * sb
         loop.prev_s_bound = sb
@@ -438,7 +447,8 @@ def run_calippso(
             fine = None
             if loop.predicted is not None:
                 fine = solve_active_set(rij, sigma2, pi, pj, n, *loop.predicted, s_bound=R, pinned=loop.pinned,
-                                        inflation_bounds=(-math.inf, math.inf))
+                                        inflation_bounds=(-math.inf, math.inf),
+                                        max_pivots=MAX_PIVOTS if loop.basis is None else None)
             if fine is None:
                 fine = solve_lp(rij, sigma2, pi, pj, n, s_bound=R, pinned=loop.pinned,
                                 inflation_bounds=(-math.inf, math.inf), tolerance=solver_tolerance,
