@@ -23,12 +23,13 @@ development machine (AMD EPYC VM; figures in docs/cluster.md and reference-bench
   band check (6.0-16.0e9 collisions, mean 10.8e9, from fast LS starts, ``benchmarks/mls_science.py``).
 * FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
-* CALiPPSO: ~10 LPs (7 from an MLS output at N = 2048, 11 from an LS + MLS start at p = 1e5 at N = 1024) of
-  ``0.84 s (N / 1024)^2.5`` each on average (HiPO, its vertex certified by the active-set solve, crossover as the
-  fallback): 4.3 s per LP at N = 2048 (32 LPs) and ~250 s at N = 10^4 (LPs 1-3: a certified one of ~50 s, two
-  that fell back to HiPO + crossover, ~400 s and > 300 s), CPU of one core on the shared machine. A cold LP alone
-  grows only as ~N^1.5 (1.5 / 12 / 50 s at N = 1024 / 4096 / 10^4): the fallbacks set the average. The old path
-  (IPX + crossover) took 1.5 s / 35-64 s / 28 min per LP.
+* CALiPPSO: ``CALIPPSO_ITERATIONS`` LPs per certification (their mean: 62 over 26 certifications of N = 1000
+  MLS outputs in the reproduction run, median 8, the longest 436, because some outputs creep by ~1e-8 in sqrt(Gamma)
+  per LP) of ``0.79 s (N / 1024)^2.23`` each on average: 46 CPU-s per certification at N = 1000 (measured: mean 46,
+  median 15, n = 23, warm-started simplex below N = 4096), and ~128 s per LP at N = 10^4 (five LPs of a tiled
+  N = 1250 MLS output: HiPO with a certified vertex 56-77 s, one fallback to HiPO + crossover 259 s, the force LP
+  176 s; docs/cluster.md). The old path (IPX + crossover) took 1.5 s / 35-64 s / 28 min per LP at N = 1024 / 4096 /
+  10^4.
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
@@ -65,11 +66,11 @@ MLS_SIZE_EXPONENT = 0.66
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: LP iterations, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks included), growing as
-#: N^CALIPPSO_EXPONENT (fitted to N = 2048 and 10^4).
-CALIPPSO_ITERATIONS = 10
-CALIPPSO_LP_SECONDS = 0.84
-CALIPPSO_EXPONENT = 2.5
+#: CALiPPSO: mean LP iterations of a certification, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks
+#: included), growing as N^CALIPPSO_EXPONENT (fitted to N = 1000 and 10^4).
+CALIPPSO_ITERATIONS = 60
+CALIPPSO_LP_SECONDS = 0.79
+CALIPPSO_EXPONENT = 2.23
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
