@@ -77,7 +77,7 @@ class BasisInverse:
 
     One sparse LU, then the product form of the inverse: replacing row k by a row that differs by v is the rank-one
     change B' = B + e_k v^T, whose inverse Sherman-Morrison gives from B's with c = B^-1 e_k, w = B^-T v and
-    delta = 1 + v.c. A pivot then costs three solves instead of a factorisation; every :data:`REFACTOR_EVERY`
+    delta = 1 + v.c. A replacement then costs two solves instead of a factorisation; every :data:`REFACTOR_EVERY`
     replacements the current rows are factorised afresh. Raises RuntimeError when the matrix is singular.
     """
 
@@ -105,12 +105,15 @@ class BasisInverse:
             y = y - w * (float(c @ b) / delta)
         return y
 
-    def replace(self, k: int, row: int) -> None:
-        """Put row ``row`` of the matrix in place of basis position ``k``."""
+    def replace(self, k: int, row: int, column: np.ndarray | None = None) -> None:
+        """Put row ``row`` of the matrix in place of basis position ``k``; ``column`` = B^-1 e_k if the caller has
+        it already (a primal pivot's edge direction is its negative)."""
         v = (self.matrix[row] - self.matrix[self.basis[k]]).toarray().ravel()
-        e_k = np.zeros(self.basis.size)
-        e_k[k] = 1.0
-        c = self.solve(e_k)
+        if column is None:
+            column = np.zeros(self.basis.size)
+            column[k] = 1.0
+            column = self.solve(column)
+        c = column
         delta = 1.0 + float(v @ c)
         if not abs(delta) > 1e-12 * max(1.0, float(np.max(np.abs(c)))):
             raise RuntimeError("singular basis after a row replacement")
@@ -126,9 +129,12 @@ def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin)
     """Move the rattlers' s (in place) so that every row with a rattler holds with ``margin``; False if impossible.
 
     The stable particles and Gamma are fixed, so the rows are linear in the rattlers' s alone: a small LP (no
-    objective) over the rattlers' components within the s bounds, solved by HiGHS's dual simplex.
+    objective) over the rattlers' components within the s bounds, solved by HiGHS (simplex: a tiny LP).
     """
     import highspy
+    from scipy.sparse import csr_matrix
+
+    from .lp import highs_model  # lp imports this module
 
     n, dim = s.shape
     rows = np.flatnonzero(rattler[pi] | rattler[pj])
@@ -147,25 +153,15 @@ def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin)
             entries_r.append(np.flatnonzero(moving))
             entries_c.append(col[end[moving]] * dim + axis)
             entries_v.append(sign * r[moving, axis])
-    from scipy.sparse import csr_matrix
-
     a = csr_matrix((np.concatenate(entries_v), (np.concatenate(entries_r), np.concatenate(entries_c))),
                    shape=(rows.size, movers.size * dim))
-    lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = movers.size * dim, rows.size
-    lp.col_cost_ = np.zeros(movers.size * dim)
-    lp.col_lower_ = np.full(movers.size * dim, -s_bound)
-    lp.col_upper_ = np.full(movers.size * dim, s_bound)
-    lp.row_lower_ = lower
-    lp.row_upper_ = np.full(rows.size, highspy.kHighsInf)
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = movers.size * dim, rows.size
-    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = a.indptr, a.indices, a.data
+    ncol = movers.size * dim
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("solver", "simplex")
     h.setOptionValue("threads", 1)
-    h.passModel(lp)
+    h.passModel(highs_model(np.zeros(ncol), np.full(ncol, -s_bound), np.full(ncol, s_bound), lower,
+                            np.full(rows.size, np.inf), a.indptr, a.indices, a.data))
     h.run()
     if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
         return False
@@ -301,7 +297,7 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         if np.max(np.abs(u[:-1] + step * d[:-1]), initial=0.0) > s_bound:
             return _fail(why, f"an s bound blocks pivot {pivot + 1}")
         try:
-            binv.replace(k, blocking[j])
+            binv.replace(k, blocking[j], column=-d)
         except RuntimeError:
             return _fail(why, f"singular contact system after {pivot + 1} pivots")
     if np.any(held):

@@ -108,6 +108,23 @@ def _highs_options(tolerance: float, extra: dict[str, Any] | None, solver: str =
 
 
 
+def highs_model(cost, col_lower, col_upper, row_lower, row_upper, start, index, value):
+    """A HiGHS LP (minimise cost . x, row_lower <= A x <= row_upper, col bounds) with A given row-wise (CSR
+    ``start``, ``index``, ``value``); infinite bounds become HiGHS's infinity."""
+    import highspy
+
+    inf = highspy.kHighsInf
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = len(cost), len(row_upper)
+    lp.col_cost_ = np.asarray(cost, dtype=float)
+    lp.col_lower_, lp.col_upper_ = np.clip(col_lower, -inf, inf), np.clip(col_upper, -inf, inf)
+    lp.row_lower_, lp.row_upper_ = np.clip(row_lower, -inf, inf), np.clip(row_upper, -inf, inf)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = len(cost), len(row_upper)
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = start, index, value
+    return lp
+
+
 _BASIC = 1  # HighsBasisStatus.kBasic
 
 
@@ -225,9 +242,6 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     m = rij.shape[0]
     ncol = n * dim + 1
     start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, n)
-    lp = highspy.HighsLp()
-    lp.num_col_ = ncol
-    lp.num_row_ = m
     cost = np.zeros(ncol)
     cost[-1] = -1.0
     lower = np.full(ncol, -s_bound)
@@ -235,20 +249,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     lower[pinned * dim:(pinned + 1) * dim] = 0.0
     upper[pinned * dim:(pinned + 1) * dim] = 0.0
     lower[-1], upper[-1] = inflation_bounds
-    inf = highspy.kHighsInf
-    lower[~np.isfinite(lower)] = -inf
-    upper[~np.isfinite(upper)] = inf
-    lp.col_cost_ = cost
-    lp.col_lower_ = lower
-    lp.col_upper_ = upper
-    lp.row_lower_ = np.full(m, -inf)
-    lp.row_upper_ = rhs
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_ = ncol
-    lp.a_matrix_.num_row_ = m
-    lp.a_matrix_.start_ = start
-    lp.a_matrix_.index_ = index
-    lp.a_matrix_.value_ = value
+    lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
     keys = pi.astype(np.int64) * n + pj
 
     opts = _highs_options(tolerance, options, solver, threads)

@@ -16,7 +16,7 @@ One iteration (Jacobi: all forces come from the configuration at the start of th
    (no shrink once ``phi_in >= 1.2 phi_nominal``).
 
 The run stops as soon as ``rho_out <= rho_in``; the result is the packing at the inner diameters
-``rho_in * D_i``, with density ``phi = phi_nominal * rho_in**d``. As in the reference code, step 1 uses the current
+``rho_in * D_i``, with density ``phi = phi_nominal * rho_in**d``. As in the paper's C++ code, step 1 uses the current
 (already shrunk) ``rho_out`` with forces computed before the shrink.
 
 gamma (the contraction rate) is dimensionless and per iteration; the number of iterations is about
@@ -63,9 +63,8 @@ def nominal_density_for_rate(rate) -> float:
     """The paper's nominal density phi_nominal(gamma) for an FB run at contraction rate gamma.
 
     The straight line in the (ln gamma, phi) plane through (1e-3, 0.6) and (1e-7, 0.7), extrapolated linearly:
-    ``0.6 + 0.1 * (ln gamma - ln 1e-3) / (ln 1e-7 - ln 1e-3)`` (0.55 at 1e-1, 0.65 at 1e-5). The formula printed in
-    the reference README has the sign of the numerator flipped (it would give 0.5 at 1e-7); its own sentence, a line
-    through those two points, is what is implemented here (docs/algorithms.md §4.5).
+    ``0.6 + 0.1 * (ln gamma - ln 1e-3) / (ln 1e-7 - ln 1e-3)`` (0.55 at 1e-1, 0.65 at 1e-5): the line through those
+    two points, as docs/algorithms.md §4.5 states it.
     """
     rate = _check_rate(rate)
     (g1, p1), (g2, p2) = RULE_POINTS

@@ -7,7 +7,7 @@ touches) and gamma = d rho/dt is the compression rate (per unit time). Collision
 growing surfaces: the normal relative speed w becomes 2 g - w, g = gamma D_ij.
 
 Windows. The run is a sequence of windows of ``events_per_particle`` x N events (all event kinds, as in the
-reference code; or collisions only, ``count_collisions_only=True``). After each window:
+paper's C++ code; or collisions only, ``count_collisions_only=True``). After each window:
 
 * reduced pressure p = PV/(N k_B T) = 1 + |X| / (2 E dt) from the collision virial X = sum |r_ij| (v_i - v_j).n_ij
   (pre-collision velocities, growth term excluded), E = kinetic energy at the end of the window, dt its duration;
@@ -540,7 +540,7 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
         Window length in events (or collisions) per particle (20 in the paper).
     count_collisions_only : bool
         Count only collisions towards the window length (the paper's wording) instead of all events (the
-        reference code: collisions, re-predictions and neighbour-list updates). Near jamming they nearly agree.
+        paper's C++ code: collisions, re-predictions and neighbour-list updates). Near jamming they nearly agree.
     temperature : float
         Thermostat temperature T (0.2).
     callback : callable(window_index, WindowStats) or None

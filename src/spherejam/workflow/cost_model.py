@@ -6,7 +6,7 @@ job when it builds the DAG. The stages are the rules' names; ``spherejam cost CO
 jobs and hours per stage (:func:`plan`).
 
 Cost model (expected CPU seconds of one job = start-up + work / speed), calibrated on one core of the 2-core
-development machine (AMD EPYC VM; figures in docs/cluster.md and reference-benchmark.md):
+development machine (AMD EPYC VM; figures in docs/cluster.md):
 
 * LS, collisions per particle from a Poisson start to p = 1e12 at compression rate gamma (the paper's gamma):
   ``300 + 2500 (1e-2 / gamma)^0.92``. Measured (N = 1000, sigma = 0): 523 / 2533 / 20177 at gamma = 1e-1 / 1e-2 /
