@@ -1,7 +1,8 @@
 """MLS parity: our closest-jamming search against the paper's own C++ code (``-lsgd``) on identical starts (issue 24).
 
 Each *pair* is one start packing made by OUR code (Poisson seed s -> FB at gamma = ``--start-rate``, or LS at that
-rate), given to both codes:
+rate), given to both codes; with ``--start FILE`` every pair starts from that packing instead (any format
+``spherejam`` reads, e.g. a workflow's ``initial.h5``) and only the velocity seed s differs:
 
 * ours: :func:`spherejam.find_closest_jamming` (gamma_0, f, final rate as given, p_max = 1e12, 50 equilibration
   windows, velocity seed s);
@@ -27,11 +28,13 @@ done, so the command is resumable. ``--summarize`` prints the table of every cel
     nice -n 15 python benchmarks/mls_parity.py --out /tmp/parity --exe <PackingGeneration.exe> \\
         --n 500 --sigma 0 --pairs 10 --ours-max-collisions-per-particle 1e6
     python benchmarks/mls_parity.py --out /tmp/parity --summarize
+    python benchmarks/mls_parity.py --out /tmp/parity --exe <exe> --start <initial.h5> --initial-rate 10 --seeds 1 2
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -46,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from spherejam import find_closest_jamming, poisson_packing, run_fb, run_ls
+from spherejam.core.packing_io import read_packing
 from spherejam.formats import packing_generation as pg
 
 P_MAX = 1e12
@@ -479,6 +483,8 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", type=int, nargs="*", help="explicit pair seeds (overrides --pairs/--first-seed)")
     ap.add_argument("--start-kind", choices=("fb", "ls"), default="fb")
     ap.add_argument("--start-rate", type=float, default=1e-3, help="gamma of the FB (or LS) start")
+    ap.add_argument("--start", type=Path, help="one start packing for every pair (overrides --n, --sigma, "
+                    "--start-kind and --start-rate; the pair seed is then the velocity seed only)")
     ap.add_argument("--initial-rate", type=float, default=1e-2)
     ap.add_argument("--factor", type=float, default=2.0)
     ap.add_argument("--final-rate", type=float, default=1e-4)
@@ -496,7 +502,13 @@ def main(argv=None) -> None:
         ap.error("--exe is required to run the C++ code")
     options = {} if args.stall_windows == "default" else {
         "stall_windows": None if args.stall_windows == "none" else int(args.stall_windows)}
-    cell = args.out / f"N{args.n}-sigma{args.sigma:g}-{args.start_kind}{args.start_rate:g}"
+    given = read_packing(args.start) if args.start else None
+    if given is not None:
+        args.n, args.sigma = given.n, round(float(np.std(given.diameters) / np.mean(given.diameters)), 3)
+        tag = hashlib.sha1(str(args.start.resolve()).encode()).hexdigest()[:8]
+        cell = args.out / f"N{args.n}-start-{tag}"
+    else:
+        cell = args.out / f"N{args.n}-sigma{args.sigma:g}-{args.start_kind}{args.start_rate:g}"
     cell.mkdir(parents=True, exist_ok=True)
     seeds = args.seeds or list(range(args.first_seed, args.first_seed + args.pairs))
     caps = {"cpp": int(args.max_collisions_per_particle * args.n),
@@ -504,14 +516,15 @@ def main(argv=None) -> None:
     common = {"stall_windows": args.stall_windows, "n": args.n, "sigma": args.sigma, "start_kind": args.start_kind,
               "start_rate": args.start_rate,
               "initial_rate": args.initial_rate, "factor": args.factor, "final_rate": args.final_rate,
-              }
+              "start_file": str(args.start) if args.start else None}
     warmed = False
     for seed in seeds:
         folder = cell / f"pair-{seed:04d}"
         todo = [c for c in args.codes if not _done(folder / f"{c}.json", caps[c])]
         if not todo:
             continue
-        start = make_start(args.n, args.sigma, seed, args.start_kind, args.start_rate)
+        start = given if given is not None else make_start(args.n, args.sigma, seed, args.start_kind,
+                                                           args.start_rate)
         meta = dict(common, seed=seed, phi_start=float(start.phi))
         folder.mkdir(parents=True, exist_ok=True)
         for code in todo:

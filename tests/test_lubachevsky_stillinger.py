@@ -118,6 +118,29 @@ def _fluid(n, phi, seed):
     return run_ls(packing, 0.1, seed=seed, target_phi=phi, progress_interval=1e9).packing
 
 
+@pytest.mark.parametrize("speed", [1.0, 1e-3, 1e-100, 1e-162, 1e-200, 1e-300])
+def test_skin_exit_delay_solves_the_sphere_equation_at_any_speed(rng, speed):
+    """|d + v tau| = h with tau > 0 from inside the skin sphere, down to speeds whose |v|^2 underflows."""
+    h = 0.1
+    for k in range(200):
+        d = np.zeros(3) if k == 0 else rng.uniform(-1, 1, 3) * h / 2  # d = 0: just after a list update
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        tau = ed.skin_exit_delay(*d, *(u * speed), h)
+        assert 0 < tau < math.inf
+        assert np.linalg.norm(d + u * (speed * tau)) == pytest.approx(h, rel=1e-12)
+
+
+def test_a_rattler_slowed_by_the_thermostat_does_not_stall_the_window():
+    """A particle at |v| = 1e-162 (what fast MLS stages leave of a rattler) must not produce zero-time windows."""
+    fluid = _fluid(300, 0.35, seed=4)
+    e = _engine_for(fluid, 0.0)
+    e.st[7, 3:6] = np.array([2.6, -0.7, 1.2]) * 1e-162
+    stats = e.window(20 * fluid.n)
+    assert stats.duration > 0 and math.isfinite(stats.pressure)
+    assert stats.collisions > 5 * fluid.n  # a real window, not a loop of skin events
+
+
 def test_energy_and_momentum_conserved_at_zero_rate():
     fluid = _fluid(300, 0.35, seed=4)
     e = _engine_for(fluid, 0.0)

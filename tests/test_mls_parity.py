@@ -2,6 +2,7 @@
 search's history into MLS stages and decides why the search stopped."""
 
 import importlib.util
+import json
 import math
 from pathlib import Path
 
@@ -110,3 +111,19 @@ def test_censored_comparisons_use_the_cap_as_a_bound():
     assert mp.censored_phi_sign_test(pairs).startswith("ours lower in 2, higher in 1 of 3 decided pairs (1 undecided)")
     # cost: pair 2 and 3 are undecided (the capped C++ stopped below our count), pair 4 ours costlier
     assert mp.censored_sign_test(pairs).startswith("ours needed fewer collisions in 1 of 2 decided pairs (2 undecided)")
+
+
+def test_a_given_start_is_used_for_every_pair(tmp_path):
+    """--start FILE: each pair searches from that packing; the pair seed changes only the velocities."""
+    from spherejam.core.packing_io import write_packing
+
+    start = poisson_packing(60, 0.0, seed=5)
+    write_packing(tmp_path / "start.h5", start)
+    mp.main(["--out", str(tmp_path / "out"), "--start", str(tmp_path / "start.h5"), "--codes", "ours",
+             "--initial-rate", "1", "--final-rate", "0.1", "--max-collisions-per-particle", "200", "--seeds", "1", "2"])
+    (cell,) = (tmp_path / "out").iterdir()
+    assert cell.name.startswith("N60-start-")
+    results = [json.loads((cell / f"pair-{s:04d}" / "ours.json").read_text()) for s in (1, 2)]
+    assert [r["phi_start"] for r in results] == [pytest.approx(start.phi, rel=1e-12)] * 2
+    assert results[0]["start_file"] == str(tmp_path / "start.h5")
+    assert results[0]["collisions"] != results[1]["collisions"] or results[0]["phi_J"] != results[1]["phi_J"]

@@ -57,6 +57,7 @@ INCONSISTENT = 3  #: an event time went backwards or became NaN
 
 #: Indices into the integer counter array of a window.
 C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
+_SLOW = 1e-200  # |v|^2 below which the skin-exit root is solved in units of |v| (a * c would underflow)
 N_COUNTERS = 5
 
 _INF = np.inf
@@ -207,8 +208,17 @@ def skin_exit_delay(dx, dy, dz, vx, vy, vz, h):
     c = dx * dx + dy * dy + dz * dz - h * h
     if c >= 0.0:
         return 0.0
-    if a == 0.0:
-        return _INF
+    if a < _SLOW:
+        # a rattler the thermostat has slowed to |v| ~ 1e-160 (docs/algorithms.md §2.1): a * c underflows and the
+        # root below would be 0, an endless loop of zero-time skin events; solve along the unit vector instead
+        big = max(abs(vx), abs(vy), abs(vz))
+        if big == 0.0:
+            return _INF
+        s = big * np.sqrt((vx / big) ** 2 + (vy / big) ** 2 + (vz / big) ** 2)  # |v| without underflow
+        bu = dx * (vx / s) + dy * (vy / s) + dz * (vz / s)
+        squ = np.sqrt(bu * bu - c)
+        reach = -c / (bu + squ) if bu > 0.0 else squ - bu  # distance along v to the skin sphere, > 0
+        return reach / s
     b = dx * vx + dy * vy + dz * vz
     sq = np.sqrt(b * b - a * c)
     # cancellation-free root; the sign of b is random, so select instead of branching
