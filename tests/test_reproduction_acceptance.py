@@ -1,0 +1,59 @@
+"""``benchmarks/reproduction_acceptance.py``: the verdict of each criterion from the tables' CSV columns."""
+
+import csv
+import importlib.util
+from pathlib import Path
+
+_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "reproduction_acceptance.py"
+_spec = importlib.util.spec_from_file_location("reproduction_acceptance", _PATH)
+ra = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(ra)
+
+
+def _write(path, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def test_verdicts_follow_the_tolerances(tmp_path):
+    t3 = {"sigma": "0"}
+    for p, low, high in (("ls", "0.6308", "0.6393"), ("fb", "0.6325", "0.6403")):
+        t3.update({f"{p}_n_fast": "16", f"{p}_phi_min_fast": low, f"{p}_phi_max_fast": high,
+                   f"{p}_phi_low_paper": "0.6356", f"{p}_phi_high_paper": "0.6406"})
+    _write(tmp_path / "table3.csv", [t3])
+    _write(tmp_path / "table4.csv", [
+        {"sigma": "0", "phi_LT": "0.6317", "phi_LT_paper": "0.6353", "phi_RCP": "0.6398", "phi_RCP_paper": "0.6405",
+         "phi_GCP": "0.65", "phi_GCP_paper": "0.65"},
+        {"sigma": "0.3", "phi_LT": "0.6559", "phi_LT_paper": "", "phi_RCP": "0.6690", "phi_RCP_paper": "0.6676",
+         "phi_GCP": "0.6777", "phi_GCP_paper": "0.6785"}])
+    _write(tmp_path / "table2.csv", [
+        {"sigma": "0.3", "curve": "LS, initial", "half_width_fit": "0.0030", "n_points": "14", "status": "",
+         "paper_phi_gcp": "0.6777", "phi_gcp_fit": "0.6790"},
+        {"sigma": "0.3", "curve": "FB, initial", "half_width_fit": "0.0050", "n_points": "12", "status": "",
+         "paper_phi_gcp": "0.6790", "phi_gcp_fit": "0.6791"}])
+    verdict = {(r["criterion"], r["sigma"]): r["met"] for r in ra.acceptance(tmp_path)}
+    assert verdict[("φ_LT ± 0.003 (Table 4)", 0.0)] == "**no**"          # -0.0036
+    assert verdict[("φ_RCP ± 0.003 (Table 4)", 0.0)] == "yes"
+    assert verdict[("φ_LT ± 0.003 (Table 4)", 0.3)] == "not decidable"  # the paper's cell is lost
+    assert verdict[("Table 3 LS φ_min^fast ± 0.004", 0.0)] == "**no**"   # -0.0048
+    assert verdict[("Table 3 FB φ_min^fast ± 0.004", 0.0)] == "yes"      # -0.0031
+    # FB initial is on the paper's value but its half-width is too wide
+    assert verdict[("φ_GCP LS, initial ± 0.004, half-width < 0.004", 0.3)] == "yes"
+    assert verdict[("φ_GCP FB, initial ± 0.004, half-width < 0.004", 0.3)] == "**no**"
+    assert verdict[("φ_GCP − φ_RCP ≈ 0.01 (± 0.003)", 0.3)] == "yes"  # 0.0087 against 0.0109
+    text = ra.acceptance_markdown(ra.acceptance(tmp_path))
+    assert "8 of 11 decidable criteria met (1 not decidable)." in text
+
+
+def test_cost_sums_the_last_run_of_each_benchmark_file(tmp_path):
+    for stage, name, cpu in (("mls", "a.tsv", ["1.0", "100.0"]), ("mls", "b.tsv", ["300.0"]),
+                             ("ls", "c.tsv", ["36.0"])):
+        folder = tmp_path / stage / "sigma0"
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / name).write_text("s\tcpu_time\n" + "".join(f"1\t{c}\n" for c in cpu))
+    text = ra.cost_markdown(tmp_path)
+    assert "| mls | 2 | 0.11 | 200.0 | 200.0 | 300.0 |" in text
+    assert "| ls | 1 | 0.01 |" in text
+    assert "| total | | 0.12 |" in text
