@@ -57,10 +57,10 @@ INCONSISTENT = 3  #: an event time went backwards or became NaN
 
 #: Indices into the integer counter array of a window.
 C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
-_SLOW = 1e-200  # |v|^2 below which the skin-exit root is solved in units of |v| (a * c would underflow)
 N_COUNTERS = 5
 
 _INF = np.inf
+_SLOW = 1e-200  # |v|^2 below which the skin-exit root is solved in units of |v| (a * c would underflow)
 
 
 @intrinsic
