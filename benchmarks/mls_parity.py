@@ -465,6 +465,32 @@ def _done(path: Path, cap: int) -> bool:
     return not (res["capped"] and res["max_collisions"] < cap)
 
 
+def claim(path: Path) -> bool:
+    """Take the lock file ``path`` for this process (False: a live process holds it).
+
+    Two workers on overlapping seeds must not run the same search: the C++ code reads and writes fixed file names in
+    its folder. A lock whose process has died is taken over.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for _ in range(2):
+        try:
+            fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            try:
+                pid = int(path.read_text() or "0")
+                os.kill(pid, 0)
+                return False  # alive
+            except (ValueError, ProcessLookupError):
+                path.unlink(missing_ok=True)  # stale
+                continue
+            except PermissionError:
+                return False
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        return True
+    return False
+
+
 def _write_json(path: Path, data: dict) -> None:
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(data))
@@ -517,7 +543,6 @@ def main(argv=None) -> None:
               "start_rate": args.start_rate,
               "initial_rate": args.initial_rate, "factor": args.factor, "final_rate": args.final_rate,
               "start_file": str(args.start) if args.start else None}
-    warmed = False
     for seed in seeds:
         folder = cell / f"pair-{seed:04d}"
         todo = [c for c in args.codes if not _done(folder / f"{c}.json", caps[c])]
@@ -528,23 +553,39 @@ def main(argv=None) -> None:
         meta = dict(common, seed=seed, phi_start=float(start.phi))
         folder.mkdir(parents=True, exist_ok=True)
         for code in todo:
-            t = time.strftime("%H:%M:%S")
-            print(f"[{t}] {cell.name} seed {seed}: {code} from phi = {start.phi:.5f}", flush=True)
-            if code == "cpp" and (folder / "cpp" / pg.NFO).is_file() and (folder / "cpp" / "log.txt").is_file():
-                res = collect_cpp(folder / "cpp", nominal_density(start))  # finished, but not recorded
-            elif code == "cpp":
-                phi_nom = write_cpp_input(start, folder / "cpp", seed, args.initial_rate, args.factor, args.final_rate)
-                res = run_cpp(args.exe, folder / "cpp", phi_nom, caps[code])
-            else:
-                if not warmed:  # load/compile the kernels outside the timed search
-                    find_closest_jamming(poisson_packing(64, 0.0, seed=0), initial_rate=1.0, max_collisions=2000,
-                                         progress_interval=1e9)
-                    warmed = True
-                res = run_ours(start, seed, args.initial_rate, args.factor, args.final_rate, caps[code], **options)
-            res.update(meta, max_collisions=caps[code])
-            _write_json(folder / f"{code}.json", res)
-            print(f"    phi_J = {res['phi_J']} stop = {res['stop']} collisions = {res['collisions']} "
-                  f"CPU = {res['cpu_s']:.1f} s windows = {res['windows']}", flush=True)
+            lock = folder / f"{code}.lock"
+            if not claim(lock):
+                print(f"    seed {seed} {code}: another worker is on it, skipped", flush=True)
+                continue
+            try:
+                if not _done(folder / f"{code}.json", caps[code]):  # another worker may have just finished it
+                    _run_one(args, code, folder, seed, start, meta, caps[code], options)
+            finally:
+                lock.unlink(missing_ok=True)
+
+
+def _run_one(args, code: str, folder: Path, seed: int, start, meta: dict, cap: int, options: dict) -> None:
+    """One search of one pair (the C++ run, or ours), recorded in ``folder/<code>.json``."""
+    print(f"[{time.strftime('%H:%M:%S')}] {folder.parent.name} seed {seed}: {code} from phi = {start.phi:.5f}",
+          flush=True)
+    if code == "cpp" and (folder / "cpp" / pg.NFO).is_file() and (folder / "cpp" / "log.txt").is_file():
+        res = collect_cpp(folder / "cpp", nominal_density(start))  # finished, but not recorded
+    elif code == "cpp":
+        phi_nom = write_cpp_input(start, folder / "cpp", seed, args.initial_rate, args.factor, args.final_rate)
+        res = run_cpp(args.exe, folder / "cpp", phi_nom, cap)
+    else:
+        if not _WARMED:  # load/compile the kernels outside the timed search
+            find_closest_jamming(poisson_packing(64, 0.0, seed=0), initial_rate=1.0, max_collisions=2000,
+                                 progress_interval=1e9)
+            _WARMED.append(True)
+        res = run_ours(start, seed, args.initial_rate, args.factor, args.final_rate, cap, **options)
+    res.update(meta, max_collisions=cap)
+    _write_json(folder / f"{code}.json", res)
+    print(f"    phi_J = {res['phi_J']} stop = {res['stop']} collisions = {res['collisions']} "
+          f"CPU = {res['cpu_s']:.1f} s windows = {res['windows']}", flush=True)
+
+
+_WARMED: list[bool] = []
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ search's history into MLS stages and decides why the search stopped."""
 import importlib.util
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,13 @@ def test_a_given_start_is_used_for_every_pair(tmp_path):
     assert [r["phi_start"] for r in results] == [pytest.approx(start.phi, rel=1e-12)] * 2
     assert results[0]["start_file"] == str(tmp_path / "start.h5")
     assert results[0]["collisions"] != results[1]["collisions"] or results[0]["phi_J"] != results[1]["phi_J"]
+
+
+def test_a_pair_is_claimed_by_one_live_worker(tmp_path):
+    """Two workers on overlapping seeds once corrupted a C++ log; the lock file lets only one of them run a search."""
+    lock = tmp_path / "pair-0001" / "cpp.lock"
+    assert mp.claim(lock)
+    assert not mp.claim(lock)  # held by a live process (this one)
+    lock.write_text("999999999")  # a worker that died
+    assert mp.claim(lock)
+    assert lock.read_text() == str(os.getpid())
