@@ -34,6 +34,7 @@ done, so the command is resumable. ``--summarize`` prints the table of every cel
 from __future__ import annotations
 
 import argparse
+import functools
 import hashlib
 import json
 import math
@@ -49,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from spherejam import find_closest_jamming, poisson_packing, run_fb, run_ls
+from spherejam.core.atomic import atomic_output
 from spherejam.core.packing_io import read_packing
 from spherejam.formats import packing_generation as pg
 
@@ -83,9 +85,8 @@ def write_cpp_input(start, folder: Path, seed: int, initial_rate: float, factor:
     nominal = start.diameters / start.diameters.mean()  # our engine's nominal diameters (docs/mls_parity.md)
     data = np.column_stack([start.positions, nominal]).astype("<f8")
     box = float(start.box)
-    tmp = folder / (pg.XYZD + ".tmp")
-    data.tofile(tmp)
-    os.replace(tmp, folder / pg.XYZD)
+    with atomic_output(folder / pg.XYZD) as tmp:
+        data.tofile(tmp)
     conf = (f"Particles count: {start.n}\nPacking size: {box!r} {box!r} {box!r}\nGeneration start: 0\n"
             f"Seed: {seed}\nSteps to write: 1000000\nBoundaries mode: 1\nContraction rate: {initial_rate!r}\n"
             f"Generation mode: 1\nFinal contraction rate: {final_rate!r}\n"
@@ -492,9 +493,8 @@ def claim(path: Path) -> bool:
 
 
 def _write_json(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data))
-    os.replace(tmp, path)
+    with atomic_output(path) as tmp:
+        tmp.write_text(json.dumps(data))
 
 
 def main(argv=None) -> None:
@@ -539,8 +539,9 @@ def main(argv=None) -> None:
     seeds = args.seeds or list(range(args.first_seed, args.first_seed + args.pairs))
     caps = {"cpp": int(args.max_collisions_per_particle * args.n),
             "ours": int((args.ours_max_collisions_per_particle or args.max_collisions_per_particle) * args.n)}
-    common = {"stall_windows": args.stall_windows, "n": args.n, "sigma": args.sigma, "start_kind": args.start_kind,
-              "start_rate": args.start_rate,
+    common = {"stall_windows": args.stall_windows, "n": args.n, "sigma": args.sigma,
+              "start_kind": None if args.start else args.start_kind,
+              "start_rate": None if args.start else args.start_rate,
               "initial_rate": args.initial_rate, "factor": args.factor, "final_rate": args.final_rate,
               "start_file": str(args.start) if args.start else None}
     for seed in seeds:
@@ -574,10 +575,7 @@ def _run_one(args, code: str, folder: Path, seed: int, start, meta: dict, cap: i
         phi_nom = write_cpp_input(start, folder / "cpp", seed, args.initial_rate, args.factor, args.final_rate)
         res = run_cpp(args.exe, folder / "cpp", phi_nom, cap)
     else:
-        if not _WARMED:  # load/compile the kernels outside the timed search
-            find_closest_jamming(poisson_packing(64, 0.0, seed=0), initial_rate=1.0, max_collisions=2000,
-                                 progress_interval=1e9)
-            _WARMED.append(True)
+        _warm_up()
         res = run_ours(start, seed, args.initial_rate, args.factor, args.final_rate, cap, **options)
     res.update(meta, max_collisions=cap)
     _write_json(folder / f"{code}.json", res)
@@ -585,7 +583,10 @@ def _run_one(args, code: str, folder: Path, seed: int, start, meta: dict, cap: i
           f"CPU = {res['cpu_s']:.1f} s windows = {res['windows']}", flush=True)
 
 
-_WARMED: list[bool] = []
+@functools.cache
+def _warm_up() -> None:
+    """Load/compile the kernels once, outside the timed searches."""
+    find_closest_jamming(poisson_packing(64, 0.0, seed=0), initial_rate=1.0, max_collisions=2000, progress_interval=1e9)
 
 
 if __name__ == "__main__":

@@ -109,11 +109,11 @@ class BasisInverse:
         """Put row ``row`` of the matrix in place of basis position ``k``; ``column`` = B^-1 e_k if the caller has
         it already (a primal pivot's edge direction is its negative)."""
         v = (self.matrix[row] - self.matrix[self.basis[k]]).toarray().ravel()
-        if column is None:
-            column = np.zeros(self.basis.size)
-            column[k] = 1.0
-            column = self.solve(column)
         c = column
+        if c is None:
+            e_k = np.zeros(self.basis.size)
+            e_k[k] = 1.0
+            c = self.solve(e_k)
         delta = 1.0 + float(v @ c)
         if not abs(delta) > 1e-12 * max(1.0, float(np.max(np.abs(c)))):
             raise RuntimeError("singular basis after a row replacement")

@@ -270,7 +270,8 @@ class LSEngine:
         if not (math.isfinite(e) and e > 0):
             raise SimulationError(f"kinetic energy {e!r} after a window")
         if not t > 0 and not reached:
-            # 20 N events in zero time are a stuck event loop, not an infinite pressure (docs/algorithms.md §2.1)
+            # 20 N events in zero time are a stuck event loop, not an infinite pressure (docs/algorithms.md,
+            # "Rattlers the thermostat has slowed")
             raise SimulationError(f"{int(counters[ed.C_EVENTS])} events took no time: the event loop is stuck")
         pressure = 1.0 + abs(acc[0]) / (2.0 * e * t) if t > 0 else math.inf
         temperature = 2.0 * e / (3.0 * self.n)

@@ -209,8 +209,9 @@ def skin_exit_delay(dx, dy, dz, vx, vy, vz, h):
     if c >= 0.0:
         return 0.0
     if a < _SLOW:
-        # a rattler the thermostat has slowed to |v| ~ 1e-160 (docs/algorithms.md §2.1): a * c underflows and the
-        # root below would be 0, an endless loop of zero-time skin events; solve along the unit vector instead
+        # a rattler the thermostat has slowed to |v| ~ 1e-160: a * c underflows and the root below would be 0, an
+        # endless loop of zero-time skin events; solve along the unit vector instead (docs/algorithms.md, "Rattlers
+        # the thermostat has slowed")
         big = max(abs(vx), abs(vy), abs(vz))
         if big == 0.0:
             return _INF
