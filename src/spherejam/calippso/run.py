@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..analysis import distributions
+from ..core import interrupt
 from ..core.checkpoint import Checkpoint, fingerprint
 from ..core.errors import OverlapError, SimulationError, require
 from ..core.neighbours import pairs_within
@@ -426,6 +427,9 @@ def run_calippso(
             break
         if ckpt.due():
             ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, lp_time), history.as_arrays())
+        if interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
+            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, lp_time), history.as_arrays())
+            interrupt.stop(checkpoint, f"after {iteration} iterations")
 
     if not converged and require_convergence:
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "

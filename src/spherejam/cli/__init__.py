@@ -3,7 +3,9 @@
 Each subcommand lives in its own module under :mod:`spherejam.cli` and exposes ``register(subparsers)``; heavy
 modules (numba engines) are imported only when their command runs, so ``spherejam --help`` stays fast.
 Errors a user can cause print one line ``spherejam <cmd>: error: ...`` and exit with status 2 (bad input) or 1
-(a check failed). Every command checks its output paths before any work (:mod:`spherejam.core.output_paths`) and takes
+(a check failed); the long runs (``ls``, ``mls``, ``fb``, ``calippso``) stopped by SIGTERM or SIGINT save their
+checkpoint and exit with 128 + the signal number (:mod:`spherejam.core.interrupt`). Every command checks its output
+paths before any work (:mod:`spherejam.core.output_paths`) and takes
 its numeric limits from :mod:`spherejam.core.validation`. A closed pipe (``spherejam info x | head -1``) ends the
 command quietly with status 141, as a killed-by-SIGPIPE program would.
 """
@@ -17,6 +19,7 @@ import os
 import sys
 
 from .. import __version__
+from ..core import interrupt
 from ..core.errors import InputError, PackingFileError, SpherejamError
 from ..core.progress import live_status
 
@@ -27,6 +30,8 @@ COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
 EXIT_BROKEN_PIPE = 141
+#: Commands that run for long and stop on SIGTERM/SIGINT with a checkpoint saved (core/interrupt.py).
+INTERRUPTIBLE = ("ls", "mls", "fb", "calippso")
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -60,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(
         level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s", stream=sys.stderr
     )
+    if args.command in INTERRUPTIBLE:
+        interrupt.install()
     try:
         with live_status(enabled=not args.quiet):  # the live progress line, on a terminal only
             code = int(args.func(args) or 0)
@@ -69,6 +76,9 @@ def main(argv: list[str] | None = None) -> int:
         # the reader went away: say nothing, and point stdout at /dev/null so the exit-time flush cannot fail again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
+    except interrupt.Interrupted as exc:
+        sys.stderr.write(f"spherejam {args.command}: {exc}\n")
+        return exc.exit_status
     except (InputError, PackingFileError) as exc:
         sys.stderr.write(f"spherejam {args.command}: error: {exc}\n")
         return EXIT_BAD_INPUT

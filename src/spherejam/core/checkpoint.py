@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import time
 from collections.abc import Mapping
@@ -18,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .atomic import atomic_output
+from .atomic import atomic_output, remove_leftovers
 from .errors import PackingFileError
 from .packing_io import dumps
 from .validation import INTERVAL
@@ -54,10 +55,15 @@ class Checkpoint:
 
     def resume(self) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, np.ndarray]] | None:
         """(arrays, attributes, history columns) of an existing checkpoint of this run, or None if there is none.
+        Temporary files that an interrupted save left next to the checkpoint are deleted first.
 
         Raises :class:`PackingFileError` if the file is unreadable, of another engine, or of another input or
         parameters (it names the file; delete it to start over)."""
-        if self.path is None or not self.path.exists():
+        if self.path is None:
+            return None
+        for leftover in remove_leftovers(self.path, ".h5"):  # a save killed midway (kill -9, node failure)
+            logging.getLogger("spherejam").info("removed %s, the temporary file of an interrupted save", leftover)
+        if not self.path.exists():
             return None
         arrays, attrs = load_checkpoint(self.path, self.kind)
         if attrs.get("fingerprint") != self.fingerprint:

@@ -23,6 +23,10 @@ class OverlapError(SpherejamError):
     """A packing has overlapping spheres beyond the tolerance (it must never become a result)."""
 
 
+class OutputError(SpherejamError, OSError):
+    """An output could not be written (the file system is full); the old file, if any, is kept."""
+
+
 class SimulationError(SpherejamError, RuntimeError):
     """An engine detected an internal inconsistency (lost event, NaN, failed solve)."""
 

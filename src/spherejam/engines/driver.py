@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core import progress
+from ..core import interrupt, progress
 from ..core.checkpoint import Checkpoint
 from ..core.validation import INTERVAL, SECONDS
 from ..core.packing import Packing
@@ -198,6 +198,9 @@ def drive(stepper: Stepper, options: RunOptions, fingerprint: str,
         stepper.report(bar, stop, wall_time())
         if stop is None and ckpt.due():
             save()
+        if stop is None and interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
+            save()
+            interrupt.stop(options.checkpoint, f"after {stepper.steps} {stepper.step_name}s")
         if callback is not None:
             callback()
     if stop in RESUMABLE_STOPS:

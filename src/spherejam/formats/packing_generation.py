@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.atomic import atomic_output
+from ..core.atomic import atomic_folder
 from ..core.errors import PackingFileError
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
 from ..core.packing_io import reject_file, validated_packing
@@ -142,10 +142,8 @@ def write(packing: Packing, folder: str | os.PathLike) -> list[Path]:
     nfo = (f"N: {packing.n}\n Dimensions: {L!r} {L!r} {L!r}\n Theoretical Porosity: {porosity!r}\n"
            f"Final Porosity: {porosity!r}\n")
     data = np.column_stack([packing.positions, packing.diameters]).astype("<f8")
-    paths = [folder / XYZD, folder / NFO, folder / CONF]
-    with atomic_output(paths[0], ".xyzd") as t0, atomic_output(paths[1], ".nfo") as t1, \
-            atomic_output(paths[2], ".conf") as t2:
-        data.tofile(t0)
-        t1.write_text(nfo)
-        t2.write_text(conf)
-    return paths
+    with atomic_folder(folder, (XYZD, NFO, CONF)) as tmp:  # the three files belong together: all new or all old
+        data.tofile(tmp / XYZD)
+        (tmp / NFO).write_text(nfo)
+        (tmp / CONF).write_text(conf)
+    return [folder / XYZD, folder / NFO, folder / CONF]

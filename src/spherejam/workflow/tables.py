@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..core.atomic import atomic_output
+from ..core.atomic import atomic_folder
 from ..core.errors import InputError
 from . import paper_reference
 from .bands import BAND_DEFAULTS, band_edges
@@ -404,22 +404,22 @@ def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
     """Write every table as ``<name>.csv`` (machine-readable, long), ``.md`` and ``.tex`` (with the paper's values),
     and ``comparison.csv`` / ``comparison.md``: every cell set against the paper, in one table."""
     outdir = Path(outdir)
-    written = []
+    texts = {}
     tables = compute_tables(ds)
     method = band_settings(ds)["method"]
     for name, t in tables.items():
         wide = formatted(name, t, method)
         notes = _notes(name, t)
-        for ext, text in (
-            ("csv", t.to_csv(index=False, float_format="%.10g")),
-            ("md", _markdown(wide, CAPTIONS[name], notes)),
-            ("tex", _latex(wide, CAPTIONS[name], notes)),
-        ):
-            written.append(_write(outdir / f"{name}.{ext}", text))
+        texts[f"{name}.csv"] = t.to_csv(index=False, float_format="%.10g")
+        texts[f"{name}.md"] = _markdown(wide, CAPTIONS[name], notes)
+        texts[f"{name}.tex"] = _latex(wide, CAPTIONS[name], notes)
     comp = comparison(tables)
-    written.append(_write(outdir / "comparison.csv", comp.to_csv(index=False, float_format="%.10g")))
-    written.append(_write(outdir / "comparison.md", comparison_markdown(tables, comp)))
-    return written
+    texts["comparison.csv"] = comp.to_csv(index=False, float_format="%.10g")
+    texts["comparison.md"] = comparison_markdown(tables, comp)
+    with atomic_folder(outdir, texts) as tmp:  # one set of tables: all new or all old
+        for file_name, text in texts.items():
+            (tmp / file_name).write_text(text)
+    return [outdir / file_name for file_name in texts]
 
 
 def comparison_markdown(tables: dict[str, pd.DataFrame], comp: pd.DataFrame | None = None) -> str:
@@ -437,12 +437,6 @@ def comparison_markdown(tables: dict[str, pd.DataFrame], comp: pd.DataFrame | No
     for name, t in tables.items():
         lines.append(_markdown(formatted(name, t), CAPTIONS[name], _notes(name, t)))
     return "\n".join(lines) + "\n"
-
-
-def _write(path: Path, text: str) -> Path:
-    with atomic_output(path, path.suffix) as tmp:
-        Path(tmp).write_text(text)
-    return path
 
 
 __all__ = ["table2", "table3", "table4", "compute_tables", "comparison", "write_tables", "N_COEFFICIENTS"]

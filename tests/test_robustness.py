@@ -1,0 +1,245 @@
+"""Issue 33: each class of failure made impossible (docs/robustness.md).
+
+Special files are made with mknod/mkfifo in a private folder, never on the real /dev; a full disk is a small tmpfs
+mounted in a private folder (skipped where mounting is not allowed). Signals are real, sent to a subprocess.
+"""
+
+import contextlib
+import io
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spherejam.cli import main
+from spherejam.core.atomic import atomic_folder, atomic_output
+from spherejam.core.checkpoint import Checkpoint
+from spherejam.core.errors import InputError, OutputError
+from spherejam.core.packing_io import read_packing, write_packing
+from spherejam.core.seeding import poisson_packing
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+
+def cli(*args):
+    """(exit code, stderr lines, stdout) of ``spherejam ARGS``, run in-process."""
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        code = main([str(a) for a in args])
+    return code, err.getvalue().strip().splitlines(), out.getvalue()
+
+
+@pytest.fixture
+def packing_file(tmp_path):
+    path = tmp_path / "p.h5"
+    write_packing(path, poisson_packing(30, 0.1, 1))
+    return path
+
+
+# --- data loss: special files -------------------------------------------------------------------------------------
+
+
+def _special_files(folder: Path) -> dict[str, Path]:
+    """A device node (/dev/zero's numbers), a block device node, a FIFO, a symlink to the device node and a symlink
+    through /proc/self/fd (what /dev/stdout is), all inside ``folder``."""
+    if os.geteuid() != 0:
+        pytest.skip("mknod needs root")
+    made = {"char": folder / "zero", "block": folder / "loop", "fifo": folder / "fifo", "link": folder / "link",
+            "stdout": folder / "stdout"}
+    os.mknod(made["char"], 0o666 | stat.S_IFCHR, os.makedev(1, 5))
+    os.mknod(made["block"], 0o666 | stat.S_IFBLK, os.makedev(7, 0))
+    os.mkfifo(made["fifo"])
+    made["link"].symlink_to(made["char"])
+    made["stdout"].symlink_to("/proc/self/fd/1")
+    return made
+
+
+@pytest.mark.parametrize("kind", ["char", "block", "fifo", "link", "stdout"])
+@pytest.mark.parametrize("command", ["seed", "export", "checkpoint"])
+def test_a_special_file_is_never_replaced(tmp_path, packing_file, kind, command):
+    target = _special_files(tmp_path)[kind]
+    before = os.lstat(target)
+    argv = {"seed": ["seed", "--n", 10, "-o", target],
+            "export": ["export", packing_file, "--format", "lammps", "-o", target],
+            "checkpoint": ["ls", packing_file, "--rate", 1, "--checkpoint", target, "-o", tmp_path / "o.h5"]}[command]
+    code, err, _ = cli(*argv)
+    assert code == 2 and len(err) == 1, err
+    assert "not a regular file" in err[0] and ("-o/--output" in err[0] or "--checkpoint" in err[0])
+    after = os.lstat(target)
+    assert (after.st_mode, after.st_ino, after.st_rdev) == (before.st_mode, before.st_ino, before.st_rdev)
+
+
+def test_the_atomic_write_itself_refuses_a_special_file(tmp_path):
+    target = _special_files(tmp_path)["fifo"]
+    with pytest.raises(InputError, match="FIFO"), atomic_output(target) as tmp:
+        tmp.write_text("x")
+    assert stat.S_ISFIFO(os.lstat(target).st_mode)
+
+
+def test_the_null_device_discards_the_output(tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("mknod needs root")
+    null = tmp_path / "null"  # a private node with /dev/null's numbers: the same device, not the real /dev
+    os.mknod(null, 0o666 | stat.S_IFCHR, os.makedev(*divmod(os.stat(os.devnull).st_rdev, 256)))
+    assert os.stat(null).st_rdev == os.stat(os.devnull).st_rdev
+    code, err, out = cli("seed", "--n", 10, "-o", null)
+    assert code == 0, err
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    assert os.listdir(tmp_path) == ["null"]  # no temporary file left beside it
+
+
+def test_a_symlink_to_a_regular_file_writes_its_target(tmp_path):
+    target, link = tmp_path / "real.h5", tmp_path / "link.h5"
+    target.write_text("old")
+    link.symlink_to(target)
+    assert cli("seed", "--n", 10, "-o", link)[0] == 0
+    assert link.is_symlink() and read_packing(target).n == 10
+
+
+def test_long_file_names(tmp_path):
+    code, err, _ = cli("seed", "--n", 10, "-o", tmp_path / ("a" * 300 + ".h5"))
+    assert code == 2 and len(err) == 1 and "-o/--output" in err[0] and "255" in err[0], err
+    ok = tmp_path / ("b" * 250 + ".h5")  # fits, though its temporary name would not without shortening
+    assert cli("seed", "--n", 10, "-o", ok)[0] == 0 and read_packing(ok).n == 10
+
+
+# --- data loss: a full disk and multi-file outputs ----------------------------------------------------------------
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 256 kB tmpfs mounted in a private folder (root only)."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({done.stderr.decode().strip()})")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)
+
+
+def test_disk_full_is_one_line_naming_the_option_and_keeps_the_old_file(small_disk):
+    out = small_disk / "big.h5"
+    assert cli("seed", "--n", 10, "-o", out)[0] == 0
+    old = out.read_bytes()
+    code, err, _ = cli("seed", "--n", 20000, "-o", out)
+    assert code == 1 and len(err) == 1, err
+    assert "-o/--output" in err[0] and "no space left" in err[0]
+    assert out.read_bytes() == old
+    assert sorted(p.name for p in small_disk.iterdir()) == ["big.h5"]
+
+
+def test_export_folder_on_a_full_disk_leaves_no_folder(small_disk, tmp_path):
+    big = tmp_path / "big.h5"
+    write_packing(big, poisson_packing(20000, 0.0, 1))
+    code, err, _ = cli("export", big, "--format", "packing-generation", "-o", small_disk / "pg")
+    assert code == 1 and len(err) == 1 and "no space left" in err[0], err
+    assert list(small_disk.iterdir()) == []
+
+
+def test_a_file_set_is_all_new_or_all_old(small_disk):
+    folder = small_disk / "tables"
+    names = ("a.csv", "b.csv", "c.csv")
+    with atomic_folder(folder, names) as tmp:
+        for name in names:
+            (tmp / name).write_text(f"old {name}")
+    with pytest.raises(OutputError, match="no space left"), atomic_folder(folder, names) as tmp:
+        (tmp / "a.csv").write_text("new a")
+        (tmp / "b.csv").write_text("x" * 400_000)  # does not fit
+        (tmp / "c.csv").write_text("new c")
+    assert {p.name: p.read_text() for p in folder.iterdir()} == {n: f"old {n}" for n in names}
+    assert sorted(p.name for p in small_disk.iterdir()) == ["tables"]
+
+
+def test_tables_write_through_one_folder_swap(tmp_path, monkeypatch):
+    """write_tables hands its whole set to atomic_folder: a failure in the last file leaves the old set."""
+    from test_tables import synthetic_dataset
+
+    from spherejam.workflow import tables
+
+    out = tmp_path / "tables"
+    first = tables.write_tables(synthetic_dataset(), out)
+    old = {p.name: p.read_bytes() for p in out.iterdir()}
+    real = Path.write_text
+
+    def fail_on_last(self, text, *args, **kwargs):
+        if self.name == "comparison.md":
+            raise OSError(28, "No space left on device", str(self))
+        return real(self, text, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", fail_on_last)
+    with pytest.raises(OutputError):
+        tables.write_tables(synthetic_dataset(), out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == old and len(first) == len(old)
+
+
+# --- data loss: checkpoints -------------------------------------------------------------------------------------
+
+
+def test_resume_removes_temporary_files_of_a_killed_save(tmp_path):
+    ckpt = tmp_path / "run.ckpt.h5"
+    leftovers = [tmp_path / ".run.ckpt.h5.k3j_9x2a.tmp.h5", tmp_path / ".run.ckpt.h5.AbCdEfGh.tmp.h5"]
+    kept = [tmp_path / ".run.ckpt.h5.notmine.tmp.h5", tmp_path / "other.h5", tmp_path / ".other.h5.abcdefgh.tmp.h5"]
+    for p in leftovers + kept:
+        p.write_text("partial")
+    assert Checkpoint(ckpt, "ls", "f", 300.0).resume() is None
+    assert not any(p.exists() for p in leftovers)
+    assert all(p.exists() for p in kept)
+
+
+def _run_until_signal(argv, sig, cwd, marker):
+    """Start ``spherejam ARGV``, send ``sig`` once stderr shows ``marker``; (exit code, stderr)."""
+    env = {**os.environ, "PYTHONPATH": SRC}
+    proc = subprocess.Popen([sys.executable, "-m", "spherejam.cli", *map(str, argv)], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = []
+    deadline = time.monotonic() + 300
+    for line in proc.stderr:
+        lines.append(line)
+        if marker in line:
+            proc.send_signal(sig)
+            break
+        assert time.monotonic() < deadline
+    rest = proc.stderr.read()
+    proc.wait(timeout=300)
+    return proc.returncode, "".join(lines) + rest
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_saves_a_checkpoint_and_the_rerun_resumes_it(tmp_path, sig):
+    start = tmp_path / "start.h5"
+    write_packing(start, poisson_packing(60, 0.0, 3))
+    common = ["ls", start, "--rate", "0.01", "--seed", 5, "--progress-interval", 0, "--checkpoint-interval", 1e6]
+    code, err = _run_until_signal([*common, "--checkpoint", tmp_path / "c.h5", "-o", tmp_path / "out.h5"], sig,
+                                  tmp_path, "window 3:")
+    assert code == 128 + sig, err
+    assert f"stopped by {signal.Signals(sig).name}" in err and "checkpoint saved" in err
+    assert (tmp_path / "c.h5").exists() and not (tmp_path / "out.h5").exists()
+    # the rerun (what Snakemake's resubmission does) resumes and ends where an uninterrupted run ends
+    assert cli(*common, "--checkpoint", tmp_path / "c.h5", "-o", tmp_path / "out.h5", "-q")[0] == 0
+    assert cli(*common, "-o", tmp_path / "straight.h5", "-q")[0] == 0
+    resumed, straight = read_packing(tmp_path / "out.h5"), read_packing(tmp_path / "straight.h5")
+    assert resumed.metadata["counters"]["resumed"] is True
+    assert np.array_equal(resumed.positions, straight.positions)
+    assert np.array_equal(resumed.diameters, straight.diameters)
+    assert not (tmp_path / "c.h5").exists()
+
+
+def test_calippso_saves_its_checkpoint_on_sigterm(tmp_path):
+    start = tmp_path / "start.h5"
+    ls = tmp_path / "ls.h5"
+    write_packing(start, poisson_packing(40, 0.0, 2))
+    assert cli("ls", start, "--rate", 1, "--p-max", 1e3, "-o", ls, "-q")[0] == 0
+    code, err = _run_until_signal(["calippso", ls, "--checkpoint", tmp_path / "c.h5", "-o", tmp_path / "j.h5"],
+                                  signal.SIGTERM, tmp_path, "calippso")
+    assert code == 143, err
+    assert "stopped by SIGTERM after" in err and (tmp_path / "c.h5").exists()
+    assert cli("calippso", ls, "--checkpoint", tmp_path / "c.h5", "-o", tmp_path / "j.h5", "-q")[0] == 0
