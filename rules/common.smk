@@ -6,16 +6,18 @@ import os
 from snakemake.exceptions import WorkflowError
 
 from spherejam.core.errors import InputError
-from spherejam.core.validation import validate_config
+from spherejam.core.validation import load_config_file, validate_config
 from spherejam.workflow.cost_model import job_resources
 from spherejam.workflow.experiment import FIGURE_NAMES, WILDCARD_CONSTRAINTS, Experiment, GridRun, mls_command
 
-try:  # the schema (filling in its defaults), then the limits and consistency rules of spherejam.core.validation
+try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.core.validation, and
+    # the design (paths that must not collide)
+    for path in workflow.configfiles:  # Snakemake's loader keeps the last of a repeated key: refuse the file
+        load_config_file(path)
     validate_config(config, workflow.source_path("../config/schema.yaml"))
+    EXP = Experiment(config)
 except InputError as exc:
     raise WorkflowError(str(exc)) from None
-
-EXP = Experiment(config)
 PATHS = EXP.paths
 
 

@@ -63,7 +63,7 @@ def test_fcc_has_z12_and_no_rattlers():
     c = contacts.analyze_contacts(p).coordination
     assert c.z_mean == 12.0 and c.z_nonrattler == 12.0 and c.rattler_fraction == 0.0
     assert c.n_contacts == 6 * p.n
-    assert c.isostatic_excess == 6 * p.n - (3 * (p.n - 1) + 1) and c.is_isostatic == 0
+    assert c.isostatic_excess == 6 * p.n - (3 * (p.n - 1) + 1) and c.isostatic_at_tolerance == 0
 
 
 def test_interstitial_small_sphere_is_a_rattler_and_others_keep_z12():

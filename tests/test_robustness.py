@@ -243,3 +243,77 @@ def test_calippso_saves_its_checkpoint_on_sigterm(tmp_path):
     assert code == 143, err
     assert "stopped by SIGTERM after" in err and (tmp_path / "c.h5").exists()
     assert cli("calippso", ls, "--checkpoint", tmp_path / "c.h5", "-o", tmp_path / "j.h5", "-q")[0] == 0
+
+
+# --- wrong results ------------------------------------------------------------------------------------------------
+
+
+def test_lammps_header_count_below_the_atoms_rows_is_refused(tmp_path, packing_file):
+    data = tmp_path / "p.data"
+    assert cli("export", packing_file, "--format", "lammps", "-o", data)[0] == 0
+    data.write_text(data.read_text().replace("30 atoms", "29 atoms"))
+    code, err, _ = cli("import", data, "-o", tmp_path / "back.h5")
+    assert code == 2 and len(err) == 1 and "holds 30 atoms but the header says 29" in err[0], err
+    assert not (tmp_path / "back.h5").exists()
+
+
+def _touching_lattice() -> "np.ndarray":
+    """A simple cubic lattice of touching spheres (every sphere has 6 contacts), shifted off float32's grid."""
+    a, m = 1.1, 4
+    grid = np.stack(np.meshgrid(*[np.arange(m)] * 3, indexing="ij"), axis=-1).reshape(-1, 3) * a + 0.123456789
+    return grid, np.full(len(grid), a), m * a
+
+
+def test_a_float32_gsd_import_writes_no_overlaps(tmp_path):
+    import gsd.hoomd
+
+    positions, diameters, L = _touching_lattice()
+    frame = gsd.hoomd.Frame()  # what HOOMD writes: float32, centred box, no spherejam chunks
+    frame.particles.N = len(diameters)
+    frame.particles.position = (positions - L / 2).astype(np.float32)
+    frame.particles.diameter = diameters.astype(np.float32)
+    frame.configuration.box = [L, L, L, 0, 0, 0]
+    with gsd.hoomd.open(tmp_path / "h.gsd", "w") as traj:
+        traj.append(frame)
+    code, err, out = cli("import", tmp_path / "h.gsd", "--tolerance", "1e-6", "-o", tmp_path / "p.h5")
+    assert code == 0, err
+    assert "diameters scaled by" in out
+    back = read_packing(tmp_path / "p.h5")  # the default 1e-10 tolerance: every other command reads it
+    scale = back.metadata["source"]["diameter_scale"]
+    assert 1 - 1e-6 < scale < 1 - 1e-9  # the round-off of float32, no more
+    assert back.check(1e-10).ok and back.closest_pair()[2] == pytest.approx(1.0, abs=1e-15)
+    assert cli("check", tmp_path / "p.h5")[0] == 0
+
+
+def test_rates_that_share_a_path_are_refused():
+    from spherejam.workflow.experiment import Experiment
+
+    config = {"n": 20, "seed": 1, "sigmas": [0.0], "ls": {"rates": [0.1, 0.1000000000001, 0.5]},
+              "fb": {"rates": [0.01]}}
+    with pytest.raises(InputError, match=r"ls.rates\[1\]=0.1000000000001: differs from 0.1 only beyond"):
+        Experiment(config)
+    with pytest.raises(InputError, match=r"sigmas\[1\]"):
+        Experiment({**config, "ls": {"rates": [0.1]}, "sigmas": [0.1, 0.10000001]})
+    extra = {"rates": [0.1], "extra_rates": [{"sigmas": [0.0], "rates": [0.1000000000001]}]}
+    with pytest.raises(InputError, match="extra_rates"):
+        Experiment({**config, "ls": extra})
+    assert [r.rate for r in Experiment({**config, "ls": {"rates": [0.1, 0.1, 0.5]}}).runs("ls")] == [0.1, 0.5]
+    assert Experiment(config | {"ls": {"rates": [0.1, 0.5]}}).runs("ls")[0].key == "ls/sigma0/rate0.1/r0"  # as before
+
+
+def test_the_geometric_isostaticity_is_not_named_as_a_verdict(tmp_path):
+    """The gap count is `isostatic_at_tolerance`; an old dataset's `is_isostatic` reads under that name, and browse
+    says which flag certifies."""
+    from test_tables import synthetic_dataset
+
+    from spherejam.workflow.dataset import open_dataset
+
+    ds = synthetic_dataset()
+    ds["is_isostatic"] = ("packing", np.zeros(ds.sizes["packing"]), {"long_name": "1 if K' == K_0 exactly, else 0"})
+    ds.to_netcdf(tmp_path / "old.nc", engine="h5netcdf")
+    back = open_dataset(tmp_path / "old.nc")
+    assert "is_isostatic" not in back and "isostatic_at_tolerance" in back
+    assert "not a verdict on jamming" in back["isostatic_at_tolerance"].attrs["long_name"]
+    code, err, out = cli("browse", tmp_path / "old.nc")
+    assert code == 0, err
+    assert "jamming is certified by calippso_is_isostatic" in out

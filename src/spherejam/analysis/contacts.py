@@ -188,7 +188,9 @@ class Coordination:
     rattler_fraction: float  #: 1 - N'/N
     isostatic_contacts: int  #: K_0 = d(N'-1) + 1 (0 if N' = 0)
     isostatic_excess: int  #: K' - K_0
-    is_isostatic: int  #: 1 if K' == K_0 and N' > 0, else 0
+    #: 1 if K' == K_0 and N' > 0, else 0: a count at one gap tolerance, not a verdict on jamming (a few contacts
+    #: open or close with the tolerance; CALiPPSO's ``is_isostatic`` certifies, docs/algorithms.md §6.3)
+    isostatic_at_tolerance: int
 
     def as_dict(self) -> dict[str, float]:
         return {k: float(v) for k, v in asdict(self).items()}
@@ -209,7 +211,7 @@ def _coordination(n, dim, tolerance, pair_i, pair_j, rattler) -> Coordination:
         rattler_fraction=1.0 - n_nr / n,
         isostatic_contacts=k0,
         isostatic_excess=k_nr - k0,
-        is_isostatic=int(n_nr > 0 and k_nr == k0),
+        isostatic_at_tolerance=int(n_nr > 0 and k_nr == k0),
     )
 
 

@@ -55,7 +55,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "rattler_fraction": ("fraction of rattlers, 1 - N'/N", "1"),
     "isostatic_contacts": ("isostatic contact number K_0 = d(N'-1)+1", "1"),
     "isostatic_excess": ("excess contacts over isostaticity, K' - K_0", "1"),
-    "is_isostatic": ("1 if K' == K_0 exactly, else 0", "1"),
+    "isostatic_at_tolerance": ("1 if K' == K_0 exactly at contact_tolerance, else 0: a contact count at one gap "
+                               "tolerance, not a verdict on jamming (calippso_is_isostatic certifies)", "1"),
     "q6_global": ("global Steinhardt bond-orientational order Q6 (bonds r_ij <= 1.2 D_ij)", "1"),
     "q6_local": ("mean local Steinhardt q6 over particles with neighbours", "1"),
     "crystalline_fraction": ("fraction of crystalline particles (>= 7 bonds with normalised q6 dot product > 0.7)",

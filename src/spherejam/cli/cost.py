@@ -21,14 +21,14 @@ def _cost(args) -> int:
     import yaml
 
     from ..core.errors import InputError
-    from ..core.validation import check_config
+    from ..core.validation import check_config, load_config_file
     from ..workflow.cost_model import load_configs, print_plan
 
     for path in args.configs:
         if not path.is_file():
             raise InputError(f"{path}: no such config file")
         try:
-            data = yaml.safe_load(path.read_text())
+            data = load_config_file(path)
         except yaml.YAMLError as exc:
             raise InputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
         except UnicodeDecodeError:

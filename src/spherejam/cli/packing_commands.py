@@ -52,7 +52,8 @@ def register(sub) -> None:
     p.add_argument("--format", choices=READABLE, default=None, help="input format (default: from the suffix)")
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.add_argument("--tolerance", type=OVERLAP_TOLERANCE.arg, default=1e-10,
-                   help="relative overlap tolerance, 0 ... 1 (1e-10; float32 files such as HOOMD's GSD may need ~1e-6)")
+                   help="relative overlap tolerance of the file, 0 ... 1 (1e-10); overlaps it lets through (float32 "
+                        "files such as HOOMD's GSD: ~1e-6) are removed by shrinking every diameter by one factor")
     p.add_argument("--box", type=BOX_SIDE.arg, default=None,
                    help="calippso-jl only: side L of the periodic cube, which the file does not hold (default 1)")
     p.add_argument("--frame", type=int, default=None, help="gsd only: frame to read (default -1, the last)")
@@ -165,7 +166,7 @@ def _import(args) -> int:
             raise InputError(f"--frame={args.frame!r}: only the gsd format has frames")
         options["frame"] = args.frame
     packing = read(args.path, fmt, tolerance=args.tolerance, **options)
-    write_packing(args.output, packing, tolerance=args.tolerance)
+    write_packing(args.output, packing)  # never with overlaps: formats.read removed what --tolerance let through
     note = packing.metadata["source"].get("note")
     print(f"{args.output}: {packing.n} spheres from {fmt} {args.path}, d={packing.dim}, L={packing.box:.10g}, "
           f"phi={packing.phi:.10f}" + (f" ({note})" if note else ""))

@@ -123,6 +123,9 @@ def _draw(draw, name: str, ds, dataset: Path):
 
 DEFAULT_COLUMNS = ("phi", "phi_J", "pressure_J", "mls_collisions", "mls_wall_time", "z_nonrattler",
                    "calippso_delta_phi", "calippso_is_isostatic")
+#: Which of the dataset's two isostaticity flags is the verdict (docs/algorithms.md §6.3), printed by ``browse``.
+CERTIFICATE = ("jamming is certified by calippso_is_isostatic (CALiPPSO's LP contacts, balanced forces); "
+               "isostatic_at_tolerance only counts gaps below one tolerance")
 GRID_COLUMNS = ("grid_phi", "grid_phi_J", "grid_collisions", "grid_stages", "grid_wall_time")
 
 
@@ -162,6 +165,7 @@ def _browse(args) -> int:
           f"{ds.sizes.get('grid_run', 0)} validation-grid runs")
     print(f"  config hash {ds.attrs.get('config_hash')}, git {ds.attrs.get('git_commit')},"
           f" created {ds.attrs.get('created')}")
+    print(f"  {CERTIFICATE}")
     dim = "grid_run" if args.grid else "packing"
     if args.grid and "grid_run" not in ds.dims:
         raise InputError("--grid: this dataset has no validation-grid runs")

@@ -276,6 +276,29 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def load_config_file(path: str | os.PathLike) -> Any:
+    """A YAML config file, read as ``yaml.safe_load`` does, but a mapping that repeats a key is refused (one line
+    naming the file, line and key): YAML loaders keep the last value silently, so a typo'd copy would win."""
+    import yaml
+
+    class StrictLoader(yaml.SafeLoader):
+        pass
+
+    def mapping(loader, node):
+        seen = set()
+        for key_node, _ in node.value:
+            key = loader.construct_object(key_node, deep=True)
+            if key in seen and key != "<<":
+                raise InputError(f"{path}: line {key_node.start_mark.line + 1}: key {key!r} is given twice (the "
+                                 "last would silently win); keep one")
+            seen.add(key)
+        return loader.construct_mapping(node, deep=True)
+
+    StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+    with open(path) as fh:
+        return yaml.load(fh, Loader=StrictLoader)  # noqa: S506 - a SafeLoader subclass
+
+
 def validate_config(config: dict, schema_path: str | os.PathLike) -> dict:
     """The workflow's check: the JSON schema (filling in its defaults) and then :func:`check_config`.
 

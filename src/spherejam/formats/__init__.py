@@ -68,12 +68,40 @@ def _module(name: str):
 
 def read(path: str | os.PathLike, fmt: str | None = None, **options) -> Packing:
     """Read and validate a packing in format ``fmt`` (default: from the suffix). ``options``: ``tolerance``
-    (relative overlap, default 1e-10; None skips the overlap check), ``box`` for calippso-jl, ``frame`` for gsd."""
+    (relative overlap, default 1e-10; None skips the overlap check), ``box`` for calippso-jl, ``frame`` for gsd.
+
+    Overlaps that a looser ``tolerance`` lets through (the round-off of a float32 file) are removed: see
+    :func:`remove_round_off_overlaps`. The packing returned never overlaps beyond the default tolerance."""
     fmt = fmt or guess_format(path)
     module = _module(fmt)
     if not FORMATS[fmt].readable:
         raise InputError(f"format={fmt!r}: can be written, not read; readable: {', '.join(READABLE)}")
-    return module.read(path, **options)
+    path = Path(path)
+    if path.is_dir() and fmt != "packing-generation":
+        raise InputError(f"{path}: is a directory; the {fmt} format is one file (a folder is a packing-generation "
+                         "file set: --format packing-generation)")
+    packing = module.read(path, **options)
+    return packing if options.get("tolerance") is None else remove_round_off_overlaps(packing)
+
+
+def remove_round_off_overlaps(packing: Packing) -> Packing:
+    """``packing`` with every diameter multiplied by the smallest normalised distance s = min r_ij/D_ij if s < 1
+    (all pairs then touch at most), the factor recorded as ``source.diameter_scale``; unchanged otherwise.
+
+    A file read with a loose tolerance (float32 positions of a jammed packing overlap by ~1e-7) would otherwise
+    become a packing that every other command refuses. One common factor keeps the size ratios, and s - 1 is the
+    round-off of the file, far below anything the file can resolve."""
+    from ..core.packing import DEFAULT_OVERLAP_TOLERANCE
+
+    if packing.check(DEFAULT_OVERLAP_TOLERANCE).ok:
+        return packing
+    _, _, scale = packing.closest_pair()
+    meta = dict(packing.metadata)
+    source = dict(meta.get("source", {}))
+    note = f"diameters scaled by {scale!r} to remove overlaps of up to {1 - scale:.2g} (round-off of the file)"
+    source.update(diameter_scale=scale, note="; ".join(filter(None, (source.get("note"), note))))
+    meta["source"] = source
+    return packing.replace(diameters=packing.diameters * scale, metadata=meta)
 
 
 def write(packing: Packing, path: str | os.PathLike, fmt: str) -> list[Path]:

@@ -113,6 +113,12 @@ def _atoms(path: Path, lines: list[str], start: int, n: int) -> np.ndarray:
         except ValueError:
             reject_file(path, f"line {k + 1}: {text[:60]!r} is not a row of numbers")
         k += 1
+    extra = 0  # rows beyond the header's count: LAMMPS refuses such a file, and so do we
+    while k < len(lines) and lines[k].split("#")[0].strip() not in ("", *SECTIONS):
+        extra += 1
+        k += 1
+    if extra:
+        reject_file(path, f"the Atoms section holds {len(rows) + extra} atoms but the header says {n}")
     if len(rows) != n:
         reject_file(path, f"the Atoms section holds {len(rows)} atoms but the header says {n}")
     return np.array(rows)

@@ -310,12 +310,11 @@ def load_configs(*paths) -> dict:
     """Config files merged as Snakemake merges several ``--configfile`` arguments: later files override earlier
     ones key by key, recursively into nested mappings. (The workflow no longer merges a ``--configfile`` over
     config/config.yaml: one file is the whole experiment.)"""
-    import yaml  # lazy: the rules' resource lambdas never need it
+    from ..core.validation import load_config_file
 
     config: dict = {}
     for path in paths:
-        with open(path) as fh:
-            _merge(config, yaml.safe_load(fh) or {})
+        _merge(config, load_config_file(path) or {})
     return config
 
 

@@ -157,6 +157,8 @@ def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
     except json.JSONDecodeError as exc:
         raise PackingFileError(f"{path}: corrupt JSON ({exc})") from None
     flat = data.get("scalars", data)
+    if not prefix:  # an analysis file written before the rename
+        flat = {RENAMED.get(k, k): v for k, v in flat.items()}
     return {f"{prefix}{k}": _num(v) for k, v in flat.items() if isinstance(v, (int, float, bool)) or v is None}
 
 
@@ -355,6 +357,11 @@ def write_dataset(ds, path: str | os.PathLike) -> Path:
     return Path(path)
 
 
+#: Dataset variables renamed since datasets were first archived: old name -> new. The geometric count was read as a
+#: verdict on jamming next to CALiPPSO's, which it is not (docs/algorithms.md §6.3).
+RENAMED = {"is_isostatic": "isostatic_at_tolerance"}
+
+
 def open_dataset(path: str | os.PathLike):
     """Load a results dataset fully into memory, with a clear error for a missing or foreign file."""
     import xarray as xr
@@ -377,6 +384,10 @@ def open_dataset(path: str | os.PathLike):
         config = None
     if not isinstance(config, dict):
         raise PackingFileError(f"{path}: its 'config' attribute is not a JSON mapping")
+    renamed = {old: new for old, new in RENAMED.items() if old in ds.variables and new not in ds.variables}
+    ds = ds.rename(renamed)
+    for new in renamed.values():  # the old description is what made it look like a verdict
+        ds[new].attrs["long_name"] = _structure_variables()[new][0]
     return ds
 
 

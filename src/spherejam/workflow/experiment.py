@@ -65,6 +65,18 @@ def fmt(x: float) -> str:
     return format(float(x), "g")
 
 
+def check_distinct_paths(values, where: str) -> None:
+    """Refuse two different numbers that :func:`fmt` prints alike: their runs would share one path, and one would
+    silently replace the other. (Equal numbers given twice are one run.) ``where`` names the config list."""
+    seen: dict[str, float] = {}
+    for i, value in enumerate(values):
+        first = seen.setdefault(fmt(value), float(value))
+        if first != float(value):
+            raise InputError(f"{where}[{i}]={value!r}: differs from {first!r} only beyond the 6 significant digits "
+                             f"of the file paths (both would be {fmt(value)!r}); make them differ within 6 digits "
+                             "or drop one")
+
+
 def derive_seed(master: int, *labels: object) -> int:
     """A deterministic 63-bit seed from the master seed and labels (protocol, sigma, rate, replica, purpose)."""
     text = "/".join([str(int(master))] + [fmt(x) if isinstance(x, float) else str(x) for x in labels])
@@ -229,7 +241,11 @@ class Experiment:
     def __init__(self, config: dict[str, Any]):
         self.config = config
         try:
-            self.results = Path(config.get("results", "results"))
+            results = config.get("results", "results")
+            if not isinstance(results, str) or not results.strip():
+                raise InputError(f"results={results!r}: must name the output folder (default 'results'); an empty "
+                                 "path would write into the current folder")
+            self.results = Path(results)
             self.n = int(config["n"])
             self.master_seed = int(config["seed"])
             self.sigmas = [float(s) for s in config["sigmas"]]
@@ -244,6 +260,11 @@ class Experiment:
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"config: missing or malformed key {exc}") from None
         self.paths = Paths(self.results)
+        check_distinct_paths(self.sigmas, "sigmas")
+        for p in PROTOCOLS:
+            check_distinct_paths(self.rates[p], f"{p}.rates")
+            for k, (_, extra) in enumerate(self.extra_rates[p]):
+                check_distinct_paths(self.rates[p] + extra, f"{p}.rates + {p}.extra_rates[{k}].rates")
         known = {fmt(s) for s in self.sigmas}
         for p in PROTOCOLS:
             for sigmas, _ in self.extra_rates[p]:
