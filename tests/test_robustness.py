@@ -317,3 +317,136 @@ def test_the_geometric_isostaticity_is_not_named_as_a_verdict(tmp_path):
     code, err, out = cli("browse", tmp_path / "old.nc")
     assert code == 0, err
     assert "jamming is certified by calippso_is_isostatic" in out
+
+
+# --- tracebacks ---------------------------------------------------------------------------------------------------
+
+
+def _set_box(path: Path, box: float) -> None:
+    import h5py
+
+    with h5py.File(path, "r+") as f:
+        f.attrs["box"] = box
+
+
+@pytest.mark.parametrize("argv", [["info", "IN"], ["check", "IN"], ["ls", "IN", "--rate", 1, "-o", "OUT"],
+                                  ["mls", "IN", "-o", "OUT"], ["fb", "IN", "--rate", 0.1, "-o", "OUT"],
+                                  ["calippso", "IN", "-o", "OUT"], ["analyze", "IN"],
+                                  ["export", "IN", "--format", "lammps", "-o", "OUT"]])
+def test_a_huge_box_is_refused_on_read_by_every_command(tmp_path, packing_file, argv):
+    _set_box(packing_file, 1e300)
+    code, err, _ = cli(*[{"IN": packing_file, "OUT": tmp_path / "out"}.get(a, a) for a in argv])
+    assert code == 2 and len(err) == 1 and "box side is 1e+300" in err[0], err
+
+
+def test_import_box_has_the_same_limit(tmp_path, packing_file):
+    dat = tmp_path / "p.dat"
+    assert cli("export", packing_file, "--format", "calippso-jl", "-o", dat)[0] == 0
+    code, err, _ = cli("import", dat, "--box", "1e300", "-o", tmp_path / "back.h5")
+    assert code == 2 and len(err) == 1 and "--box" in err[0] and "1e+50" in err[0], err
+
+
+def test_a_seed_beyond_the_box_limit_is_refused_in_one_line(tmp_path):
+    code, err, _ = cli("seed", "--n", 10, "--dim", 5, "--phi-nominal", "1e-300", "-o", tmp_path / "s.h5")
+    assert code == 2 and len(err) == 1 and "box side" in err[0], err
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_analyze_after_a_tiny_nominal_density(tmp_path):
+    """seed --phi-nominal 1e-60 makes a box of 3e20; the Voronoi tessellation works in box units."""
+    from spherejam.analysis.structure import voronoi_volumes
+
+    p = poisson_packing(60, 0.1, 4, phi_nominal=1e-60)
+    assert p.box > 1e19
+    small = p.replace(positions=p.positions / p.box, diameters=p.diameters / p.box, box=1.0)
+    np.testing.assert_allclose(voronoi_volumes(p) / p.box**3, voronoi_volumes(small), rtol=1e-9)
+    write_packing(tmp_path / "s.h5", p)
+    code, err, _ = cli("analyze", tmp_path / "s.h5", "--pore-samples", 1000, "-q")
+    assert code == 0, err
+
+
+def _packing_generation(tmp_path, packing_file) -> Path:
+    folder = tmp_path / "pg"
+    assert cli("export", packing_file, "--format", "packing-generation", "-o", folder)[0] == 0
+    return folder
+
+
+def test_packing_generation_size_zero_is_refused(tmp_path, packing_file):
+    folder = _packing_generation(tmp_path, packing_file)
+    conf = folder / "generation.conf"
+    conf.write_text("\n".join("Packing size: 0 0 0" if line.startswith("Packing size") else line
+                              for line in conf.read_text().splitlines()) + "\n")
+    code, err, _ = cli("import", folder, "-o", tmp_path / "back.h5")
+    assert code == 2 and len(err) == 1 and "Packing size [0.0, 0.0, 0.0]" in err[0], err
+
+
+# --- unclear errors -----------------------------------------------------------------------------------------------
+
+
+def test_a_negative_diameter_in_xyzd_is_named(tmp_path, packing_file):
+    folder = _packing_generation(tmp_path, packing_file)
+    data = np.fromfile(folder / "packing.xyzd", dtype="<f8").reshape(-1, 4)
+    data[3, 3] = -data[3, 3]
+    data.tofile(folder / "packing.xyzd")
+    code, err, _ = cli("import", folder, "-o", tmp_path / "back.h5")
+    assert code == 2 and len(err) == 1 and "sphere 3 has diameter -" in err[0] and "porosity" not in err[0], err
+
+
+def test_import_of_a_folder_as_a_one_file_format(tmp_path):
+    code, err, _ = cli("import", tmp_path, "--format", "lammps", "-o", tmp_path / "x.h5")
+    assert code == 2 and len(err) == 1 and "is a directory" in err[0] and "no such file" not in err[0], err
+
+
+def test_fb_max_iterations_says_so_on_stderr_and_writes_the_partial_result(tmp_path, packing_file):
+    code, err, out = cli("fb", packing_file, "--rate", 0.01, "--max-iterations", 3, "-o", tmp_path / "fb.h5", "-q")
+    assert code == 1 and len(err) == 1 and "--max-iterations" in err[0] and out == "", (err, out)
+    partial = read_packing(tmp_path / "fb.h5")
+    assert partial.metadata["counters"]["completed"] is False
+    assert partial.metadata["counters"]["stop_reason"] == "max_iterations"
+
+
+def test_browse_on_a_packing_file_is_one_line(packing_file):
+    proc = subprocess.run([sys.executable, "-m", "spherejam.cli", "browse", str(packing_file)], capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": SRC})
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "a spherejam packing file, not a results dataset" in proc.stderr
+
+
+def test_third_party_info_lines_are_not_shown(packing_file):
+    """freud logs "Using SciPy's fftpack" at INFO when imported; only spherejam's own lines are shown."""
+    for quiet in ([], ["-q"]):
+        proc = subprocess.run([sys.executable, "-m", "spherejam.cli", "analyze", str(packing_file),
+                               "--pore-samples", "1000", *quiet], capture_output=True, text=True,
+                              env={**os.environ, "PYTHONPATH": SRC})
+        assert proc.returncode == 0 and "fftpack" not in proc.stderr, proc.stderr
+
+
+def test_browse_empty_figure_names_figure(tmp_path):
+    from test_tables import synthetic_dataset
+
+    synthetic_dataset().to_netcdf(tmp_path / "ds.nc", engine="h5netcdf")
+    code, err, _ = cli("browse", tmp_path / "ds.nc", "--figure", "", "-o", tmp_path / "f")
+    assert code == 2 and len(err) == 1 and err[0].startswith("spherejam browse: error: --figure=''"), err
+
+
+def test_duplicate_yaml_keys_are_refused(tmp_path):
+    from spherejam.core.validation import load_config_file
+
+    path = tmp_path / "c.yaml"
+    path.write_text("n: 20\nls:\n  rates: [0.1]\n  p_max: 1e12\n  rates: [0.5]\n")
+    with pytest.raises(InputError, match=r"line 5: key 'rates' is given twice"):
+        load_config_file(path)
+    code, err, _ = cli("cost", path)
+    assert code == 2 and len(err) == 1 and "given twice" in err[0], err
+    path.write_text("a: &x {b: 1}\nc:\n  <<: *x\n  d: 2\n")  # a merge key is not a repeat
+    assert load_config_file(path) == {"a": {"b": 1}, "c": {"b": 1, "d": 2}}
+
+
+@pytest.mark.parametrize("results", ["", "  ", None])
+def test_an_empty_results_folder_is_refused(results):
+    from spherejam.workflow.experiment import Experiment
+
+    config = {"n": 20, "seed": 1, "sigmas": [0.0], "ls": {"rates": [0.1]}, "fb": {"rates": [0.01]},
+              "results": results}
+    with pytest.raises(InputError, match="results="):
+        Experiment(config)

@@ -271,12 +271,15 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
     from scipy.spatial import ConvexHull
 
     _require_3d(packing, "the Voronoi tessellation")
-    n, box = packing.n, packing.box
-    weights = 0.25 * packing.diameters**2 if radical else np.zeros(n)
+    # In units of the box side: qhull's tolerances are absolute, and the lifted coordinate |x|^2 of a box of 1e20
+    # would swamp the others (a "not full dimensional" error); the volumes are scaled back at the end.
+    n, unit, box = packing.n, packing.box, 1.0
+    positions, diameters = packing.positions / unit, packing.diameters / unit
+    weights = 0.25 * diameters**2 if radical else np.zeros(n)
     spacing = (box**3 / n) ** (1.0 / 3.0)
-    shell = min(2.0 * spacing + float(packing.diameters.max()), box)
+    shell = min(2.0 * spacing + float(diameters.max()), box)
     while True:
-        pts, wts = _periodic_shell(packing.positions, weights, box, shell)
+        pts, wts = _periodic_shell(positions, weights, box, shell)
         lifted = np.column_stack([pts, np.einsum("ij,ij->i", pts, pts) - wts])
         hull = ConvexHull(lifted)
         lower = hull.equations[:, 3] < 0.0  # outward normal pointing down: a regular tetrahedron
@@ -292,10 +295,9 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
     total = volumes.sum()
     if not (np.all(volumes > 0) and abs(total / box**3 - 1.0) < 1e-8):
         raise SimulationError(
-            f"Voronoi: cell volumes sum to {total:.12g}, not L^3 = {box**3:.12g} (or a cell is empty);"
-            " overlapping spheres?"
+            f"Voronoi: cell volumes sum to {total:.12g} L^3, not L^3 (or a cell is empty); overlapping spheres?"
         )
-    return volumes
+    return volumes * unit**3
 
 
 def voronoi_statistics(volumes: np.ndarray, diameters: np.ndarray) -> dict[str, float]:

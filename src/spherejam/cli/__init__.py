@@ -62,9 +62,10 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # a usage error (2), --help or --version (0): returned like every other outcome
         return int(exc.code or 0)
-    logging.basicConfig(
-        level=logging.WARNING if args.quiet else logging.INFO, format="%(message)s", stream=sys.stderr
-    )
+    # Only spherejam's own progress lines at INFO: other packages' INFO lines (freud's "Using SciPy's fftpack")
+    # are not ours to show, quiet or not.
+    logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
+    logging.getLogger("spherejam").setLevel(logging.WARNING if args.quiet else logging.INFO)
     if args.command in INTERRUPTIBLE:
         interrupt.install()
     try:

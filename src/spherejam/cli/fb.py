@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from ..core.output_paths import check_outputs, output_file
@@ -27,7 +28,8 @@ def register(sub) -> None:
     p.add_argument("--checkpoint", type=output_file, help="checkpoint file: resumed from if present")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds, 0 = every iteration (default 300)")
-    p.add_argument("--max-iterations", type=FB_ITERATIONS.arg, help="stop after this many iterations")
+    p.add_argument("--max-iterations", type=FB_ITERATIONS.arg,
+                   help="stop after this many iterations; the unfinished packing is written (completed false, exit 1)")
     p.add_argument("--max-wall-time", type=SECONDS.arg,
                    help="stop after this many seconds of this call (> 0); the checkpoint is kept, so a rerun continues")
     p.add_argument("--progress-interval", type=INTERVAL.arg, default=10.0,
@@ -47,12 +49,18 @@ def _fb(args) -> int:
         checkpoint_interval=args.checkpoint_interval, progress_interval=args.progress_interval,
     )
     c = result.stats
-    if not c.completed:
-        where = f"; resume from checkpoint {args.checkpoint}" if args.checkpoint else ""
-        print(f"stopped ({c.stop_reason}) after {c.steps} iterations (phi_inner {c.phi_final:.6f}), "
-              f"no output written{where}")
+    if c.stop_reason == "max_wall_time":
+        # no output: Snakemake would take it for the result; the kept checkpoint lets a rerun continue
+        where = f"; rerun to resume from the checkpoint {args.checkpoint}" if args.checkpoint else ""
+        sys.stderr.write(f"spherejam fb: stopped by --max-wall-time after {c.steps} iterations (phi_inner "
+                         f"{c.phi_final:.6f}), no output written{where}\n")
         return EXIT_FAILED
     write_packing(args.output, result.packing, result.history)
+    if not c.completed:  # as calippso --max-iterations: the unfinished packing, marked completed false, exit 1
+        sys.stderr.write(f"spherejam fb: stopped by --max-iterations after {c.steps} iterations (phi_inner "
+                         f"{c.phi_final:.6f}) before the outer diameter met the inner one; wrote the unfinished "
+                         f"packing to {args.output} (counters: completed false)\n")
+        return EXIT_FAILED
     print(f"{args.output}: N={result.packing.n} phi={result.packing.phi:.6f} "
           f"iterations={c.steps} wall={c.wall_time:.2f}s")
     return 0

@@ -139,10 +139,10 @@ def _browse(args) -> int:
 
     if args.plot and args.packing is None:
         raise InputError("--plot: needs --packing KEY (the packing whose MLS history to draw)")
-    if args.figure and args.packing is not None:
+    if args.figure is not None and args.packing is not None:
         raise InputError("--figure: not with --packing (redraw a figure, or look at one packing)")
     outputs, stem = {"--csv": args.csv}, None
-    if args.figure:
+    if args.figure is not None:  # also --figure "": named as what it is, not as a stray -o
         from ..workflow.figures import FIGURES
 
         if args.figure not in FIGURES:
@@ -204,7 +204,7 @@ def _browse(args) -> int:
 
         for name, t in compute_tables(ds).items():
             print(f"\n{name}\n{formatted(name, t).to_string()}")
-    if args.figure:
+    if args.figure is not None:
         from ..workflow.figures import draw, save_figure
 
         for path in save_figure(_draw(draw, args.figure, ds, args.dataset), stem):

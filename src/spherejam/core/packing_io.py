@@ -25,6 +25,7 @@ from .atomic import atomic_output
 from .errors import OverlapError, PackingFileError
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .provenance import provenance
+from .validation import BOX_SIDE
 
 FORMAT = "spherejam-packing-1"
 _SCALAR_KEYS = ("algorithm", "seed", "reduced_pressure")
@@ -61,6 +62,9 @@ def write_packing(
     Raises :class:`OverlapError` (and writes nothing) if the packing overlaps beyond ``tolerance``.
     """
     path = Path(path)
+    if not BOX_SIDE.ok(packing.box):
+        raise PackingFileError(f"refusing to write {path}: box side {packing.box!r}; {BOX_SIDE.rule()} (L**d must "
+                               "stay a finite number)")
     packing.validate(tolerance, what=f"refusing to write {path}")
     h5py = _h5py()
     meta = dict(packing.metadata)
@@ -195,8 +199,8 @@ def validated_packing(
         reject_file(path, f"diameters have shape {diameters.shape}, expected ({positions.shape[0]},)")
     if positions.shape[0] < 2:
         reject_file(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
-    if not (math.isfinite(box) and box > 0):
-        reject_file(path, f"box side is {box!r}, expected a finite number > 0")
+    if not BOX_SIDE.ok(box):
+        reject_file(path, f"box side is {box!r}; {BOX_SIDE.rule()} (L**d must stay a finite number)")
     if not np.all(np.isfinite(positions)):
         reject_file(path, "positions contain NaN or infinity")
     if not (np.all(np.isfinite(diameters)) and np.all(diameters > 0)):

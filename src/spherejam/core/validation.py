@@ -149,7 +149,10 @@ CALIPPSO_ITERATIONS = Bound(1, 1_000_000, integer=True)
 FB_ITERATIONS = Bound(0, 10**12, integer=True)
 OVERLAP_TOLERANCE = Bound(0.0, 1.0)
 IMAGE_SIZE = Bound(16, 8192, integer=True)
-BOX_SIDE = Bound(0.0, None, lo_open=True)
+#: The side L of a packing's box, in any length unit, for every reader, writer and ``import --box``: L**d (d <= 5)
+#: and N ball volumes stay finite, normal doubles, so phi and the cell list cannot overflow.
+BOX_MIN, BOX_MAX = 1e-50, 1e50
+BOX_SIDE = Bound(BOX_MIN, BOX_MAX)
 #: The HiGHS solvers CALiPPSO's LPs can be sent to (here, not in calippso.py, so that the CLI need not load numba).
 LP_SOLVERS = ("hipo", "ipx", "simplex")
 
@@ -287,8 +290,10 @@ def load_config_file(path: str | os.PathLike) -> Any:
     def mapping(loader, node):
         seen = set()
         for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":  # "<<: *anchor" merges; its keys may be overridden
+                continue
             key = loader.construct_object(key_node, deep=True)
-            if key in seen and key != "<<":
+            if key in seen:
                 raise InputError(f"{path}: line {key_node.start_mark.line + 1}: key {key!r} is given twice (the "
                                  "last would silently win); keep one")
             seen.add(key)

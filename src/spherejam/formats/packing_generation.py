@@ -26,6 +26,7 @@ from ..core.atomic import atomic_folder
 from ..core.errors import PackingFileError
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
 from ..core.packing_io import reject_file, validated_packing
+from ..core.validation import BOX_SIDE
 
 XYZD, NFO, CONF = "packing.xyzd", "packing.nfo", "generation.conf"
 #: Relative agreement required between the nfo's Theoretical Porosity density and that of the stored diameters
@@ -85,6 +86,8 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
     if not (sides[0] == sides[1] == sides[2]):
         reject_file(conf, f"Packing size {sides}: spherejam packings are cubes (all three sides equal)")
     box = sides[0]
+    if not BOX_SIDE.ok(box):  # before the porosity check divides by L^3
+        reject_file(conf, f"Packing size {sides}: the box side {BOX_SIDE.rule()}")
     size = xyzd.stat().st_size
     if size % 32:
         reject_file(xyzd, f"{size} bytes is not a whole number of spheres (32 bytes each: x y z d as float64)")
@@ -92,6 +95,9 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
         reject_file(xyzd, f"holds {size // 32} spheres but {conf.name} says Particles count {n}")
     data = np.fromfile(xyzd, dtype="<f8").reshape(-1, 4).astype(np.float64)
     positions, stored = data[:, :3], data[:, 3]
+    bad = np.flatnonzero(~(np.isfinite(stored) & (stored > 0)))
+    if len(bad):  # before the porosity check, which would blame the nfo file
+        reject_file(xyzd, f"sphere {bad[0]} has diameter {float(stored[bad[0]])!r}; diameters must be finite and > 0")
     source = {"format": "packing-generation", "files": [str(xyzd), str(conf)], "scale": 1.0}
     for key in ("seed", "contraction rate", "generation start"):
         if key in values:
@@ -108,12 +114,11 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
         final = _number(nfo, info, "Final Porosity")
         if not (0 <= theoretical < 1 and 0 <= final < 1):
             reject_file(nfo, f"porosities must lie in [0, 1) (Theoretical {theoretical!r}, Final {final!r})")
-        if np.all(np.isfinite(stored)):
-            density = float(np.sum(ball_volume(stored, 3))) / box**3
-            if not abs(density - (1.0 - theoretical)) <= DENSITY_RTOL * (1.0 - theoretical):
-                reject_file(nfo, f"Theoretical Porosity {theoretical!r} disagrees with the diameters in {xyzd.name} "
-                           f"(porosity {1.0 - density!r}): the diameters were rescaled after generation or the "
-                           "files belong to different packings")
+        density = float(np.sum(ball_volume(stored, 3))) / box**3
+        if not abs(density - (1.0 - theoretical)) <= DENSITY_RTOL * (1.0 - theoretical):
+            reject_file(nfo, f"Theoretical Porosity {theoretical!r} disagrees with the diameters in {xyzd.name} "
+                        f"(porosity {1.0 - density!r}): the diameters were rescaled after generation or the "
+                        "files belong to different packings")
         scale = ((1.0 - final) / (1.0 - theoretical)) ** (1.0 / 3.0)
         source.update(files=source["files"] + [str(nfo)], scale=scale, final_porosity=final,
                       theoretical_porosity=theoretical)

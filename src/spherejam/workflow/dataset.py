@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -357,6 +358,22 @@ def write_dataset(ds, path: str | os.PathLike) -> Path:
     return Path(path)
 
 
+def _refuse_packing_file(path: Path) -> None:
+    """A packing file given where a dataset belongs: say so, and which command reads it."""
+    import h5py
+
+    from ..core.packing_io import FORMAT
+
+    try:
+        with h5py.File(path, "r") as f:
+            is_packing = f.attrs.get("format") == FORMAT
+    except OSError:  # not HDF5 at all: the netCDF reader's message says so
+        return
+    if is_packing:
+        raise PackingFileError(f"{path}: a spherejam packing file, not a results dataset (`spherejam info` describes "
+                               "it)")
+
+
 #: Dataset variables renamed since datasets were first archived: old name -> new. The geometric count was read as a
 #: verdict on jamming next to CALiPPSO's, which it is not (docs/algorithms.md §6.3).
 RENAMED = {"is_isostatic": "isostatic_at_tolerance"}
@@ -369,8 +386,13 @@ def open_dataset(path: str | os.PathLike):
     path = Path(path)
     if not path.exists():
         raise PackingFileError(f"{path}: no such dataset")
+    if path.is_dir():
+        raise PackingFileError(f"{path}: is a directory, not a dataset file")
+    _refuse_packing_file(path)
     try:
-        ds = xr.load_dataset(path, engine="h5netcdf")
+        with warnings.catch_warnings():  # the backends' warnings about foreign files come before our one line
+            warnings.simplefilter("ignore")
+            ds = xr.load_dataset(path, engine="h5netcdf")
     except Exception as exc:  # noqa: BLE001 - netCDF backends raise many types
         raise PackingFileError(f"{path}: not a readable netCDF dataset ({str(exc).splitlines()[0]})") from None
     if "config" not in ds.attrs or "packing" not in ds.dims:
