@@ -222,6 +222,7 @@ def test_cli_fb(tmp_path, capsys):
     ck = tmp_path / "ck.h5"
     assert main(["-q", "fb", str(src), "--rate", "1e-3", "-o", str(tmp_path / "b.h5"), "--max-iterations", "5",
                  "--checkpoint", str(ck)]) == 1
-    assert ck.exists() and not (tmp_path / "b.h5").exists()
+    # as calippso --max-iterations: the unfinished packing is written, marked so; the checkpoint is kept to continue
+    assert ck.exists() and read_packing(tmp_path / "b.h5").metadata["counters"]["completed"] is False
     assert main(["-q", "fb", str(src), "--rate", "2", "-o", str(tmp_path / "c.h5")]) == 2
     assert "--rate: '2'" in capsys.readouterr().err  # refused by the option's limit (spherejam.core.validation)

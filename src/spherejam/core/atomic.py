@@ -52,7 +52,7 @@ def special_kind(path: str | os.PathLike) -> str | None:
     """What ``path`` is if it exists and is not a regular file (symlinks followed): ``"a FIFO"``, ``"a character
     device"``, ...; ``"the null device"`` for /dev/null (the discard idiom); None for a regular or missing file."""
     if _through_descriptor(path):
-        return "a file descriptor of this process"
+        return "a path through /proc or /dev/fd (a descriptor such as /dev/stdout)"
     try:
         mode = os.stat(path).st_mode
     except OSError:
@@ -98,11 +98,11 @@ def temp_prefix(path: str | os.PathLike) -> str:
 def remove_leftovers(path: str | os.PathLike, suffix: str = "") -> list[Path]:
     """Delete temporary files that a killed write to ``path`` left next to it (``.NAME.XXXXXXXX.tmpSUFFIX``);
     returns them. Only for files that one process owns at a time (a checkpoint)."""
-    path = Path(path)
+    path = Path(os.path.realpath(path))  # the folder and name atomic_output writes into
     if not path.parent.is_dir():
         return []
     removed = []
-    for p in path.parent.glob(f"{glob_escape(temp_prefix(path))}*.tmp{glob_escape(suffix)}"):
+    for p in path.parent.glob(f"{_glob_escape(temp_prefix(path))}*.tmp{_glob_escape(suffix)}"):
         middle = p.name[len(temp_prefix(path)):-len(f".tmp{suffix}")]
         if len(middle) == 8 and p.is_file():  # mkstemp's 8 random characters, nothing else
             with contextlib.suppress(FileNotFoundError):
@@ -111,7 +111,7 @@ def remove_leftovers(path: str | os.PathLike, suffix: str = "") -> list[Path]:
     return removed
 
 
-def glob_escape(text: str) -> str:
+def _glob_escape(text: str) -> str:
     return "".join(f"[{c}]" if c in "*?[" else c for c in text)
 
 
