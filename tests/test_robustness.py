@@ -373,9 +373,10 @@ def _packing_generation(tmp_path, packing_file) -> Path:
 
 def test_packing_generation_size_zero_is_refused(tmp_path, packing_file):
     folder = _packing_generation(tmp_path, packing_file)
-    conf = folder / "generation.conf"
-    conf.write_text("\n".join("Packing size: 0 0 0" if line.startswith("Packing size") else line
-                              for line in conf.read_text().splitlines()) + "\n")
+    for name, key in (("generation.conf", "Packing size:"), ("packing.nfo", " Dimensions:")):  # agreeing files
+        path = folder / name
+        path.write_text("\n".join(f"{key} 0 0 0" if line.startswith(key) else line
+                                  for line in path.read_text().splitlines()) + "\n")
     code, err, _ = cli("import", folder, "-o", tmp_path / "back.h5")
     assert code == 2 and len(err) == 1 and "Packing size [0.0, 0.0, 0.0]" in err[0], err
 
@@ -450,3 +451,10 @@ def test_an_empty_results_folder_is_refused(results):
               "results": results}
     with pytest.raises(InputError, match="results="):
         Experiment(config)
+
+
+def test_a_special_file_as_input_is_refused_not_read(tmp_path):
+    """A FIFO given as a packing would block the HDF5 reader for ever."""
+    fifo = _special_files(tmp_path)["fifo"]
+    code, err, _ = cli("info", fifo)
+    assert code == 2 and len(err) == 1 and "is a FIFO, not a packing file" in err[0], err

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .atomic import atomic_output
+from .atomic import atomic_output, special_kind
 from .errors import OverlapError, PackingFileError
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .provenance import provenance
@@ -156,6 +156,8 @@ def read_packing(
         reject_file(path, "no such file")
     if path.is_dir():
         reject_file(path, "is a directory, not a packing file")
+    if not path.is_file():  # a FIFO would block the reader for ever, a device would be read as HDF5
+        reject_file(path, f"is {special_kind(path) or 'not a regular file'}, not a packing file")
     h5py = _h5py()
     try:
         with h5py.File(path, "r") as f:
