@@ -7,6 +7,8 @@ from pathlib import Path
 from ..core.output_paths import check_outputs, output_file
 from ..core.validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
 from . import EXIT_FAILED
+from .stale_checkpoint import add_option as add_stale_checkpoint_option
+from .stale_checkpoint import run_discarding_stale
 
 
 def register(sub) -> None:
@@ -27,6 +29,7 @@ def register(sub) -> None:
     p.add_argument("--checkpoint", type=output_file, help="checkpoint file: resumed from if present")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds, 0 = every iteration (default 300)")
+    add_stale_checkpoint_option(p)
     p.add_argument("--max-iterations", type=FB_ITERATIONS.arg, help="stop after this many iterations")
     p.add_argument("--max-wall-time", type=SECONDS.arg,
                    help="stop after this many seconds of this call (> 0); the checkpoint is kept, so a rerun continues")
@@ -41,11 +44,11 @@ def _fb(args) -> int:
 
     check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
     start = read_packing(args.input, tolerance=None)  # FB accepts overlapping starts
-    result = run_fb(
+    result = run_discarding_stale(args, lambda: run_fb(
         start, args.rate, phi_nominal=args.phi_nominal, max_iterations=args.max_iterations,
         max_wall_time=args.max_wall_time, checkpoint=args.checkpoint,
         checkpoint_interval=args.checkpoint_interval, progress_interval=args.progress_interval,
-    )
+    ))
     c = result.stats
     if not c.completed:
         where = f"; resume from checkpoint {args.checkpoint}" if args.checkpoint else ""

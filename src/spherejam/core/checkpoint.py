@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_output
-from .errors import PackingFileError
+from .errors import PackingFileError, StaleCheckpointError
 from .packing_io import dumps
 from .validation import INTERVAL
 
@@ -55,14 +55,15 @@ class Checkpoint:
     def resume(self) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, np.ndarray]] | None:
         """(arrays, attributes, history columns) of an existing checkpoint of this run, or None if there is none.
 
-        Raises :class:`PackingFileError` if the file is unreadable, of another engine, or of another input or
-        parameters (it names the file; delete it to start over)."""
+        Raises :class:`PackingFileError` if the file is unreadable or of another engine, and its subclass
+        :class:`StaleCheckpointError` if it is of another input or parameters (it names the file; delete it to
+        start over)."""
         if self.path is None or not self.path.exists():
             return None
         arrays, attrs = load_checkpoint(self.path, self.kind)
         if attrs.get("fingerprint") != self.fingerprint:
-            raise PackingFileError(f"{self.path}: checkpoint of a different input or parameters; delete it to start "
-                                   "over")
+            raise StaleCheckpointError(self.path, f"{self.path}: checkpoint of a different input or parameters; "
+                                       "delete it to start over")
         history = {k[len(_HISTORY):]: v for k, v in arrays.items() if k.startswith(_HISTORY)}
         arrays = {k: v for k, v in arrays.items() if not k.startswith(_HISTORY)}
         return arrays, attrs, history
