@@ -22,5 +22,6 @@ rule calippso:
     group:
         "analysis"
     shell:
-        "spherejam calippso {input} --threads {threads} --checkpoint {params.checkpoint} -o {output.packing}"
+        "spherejam calippso {input} --threads {threads} --checkpoint {params.checkpoint} --discard-stale-checkpoint"
+        " -o {output.packing}"
         " --summary {output.summary} > {log} 2>&1"

@@ -22,7 +22,7 @@ rule ls:
         **job_resources("ls", EXP.n),
     shell:
         "spherejam ls {input} --rate {wildcards.rate} --p-max {params.p_max} --seed {params.seed}"
-        " --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        " --checkpoint {params.checkpoint} --discard-stale-checkpoint -o {output} > {log} 2>&1"
 
 
 rule fb:
@@ -47,4 +47,4 @@ rule fb:
         "generation"
     shell:
         "spherejam fb {input} --rate {wildcards.rate} {params.phi_nominal}"
-        " --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        " --checkpoint {params.checkpoint} --discard-stale-checkpoint -o {output} > {log} 2>&1"

@@ -9,6 +9,8 @@ from pathlib import Path
 from ..core.output_paths import check_outputs, output_file
 from ..core.validation import CALIPPSO_ITERATIONS, LP_SOLVERS, THREADS
 from . import EXIT_FAILED, finite_float
+from .stale_checkpoint import add_option as add_stale_checkpoint_option
+from .stale_checkpoint import run_discarding_stale
 
 
 def register(sub) -> None:
@@ -33,6 +35,7 @@ def register(sub) -> None:
                    help="cross over after every interior point, or certify its active set and cross over only "
                         "when that fails (default: certify with hipo, cross over with ipx)")
     p.add_argument("--checkpoint", type=output_file, default=None, help="checkpoint file (resume if it exists)")
+    add_stale_checkpoint_option(p)
     p.add_argument("--require-convergence", action="store_true",
                    help="stop with an error and write nothing if not converged (without it an unconverged run "
                         "still writes its output, reports converged False and exits 1)")
@@ -51,12 +54,12 @@ def _calippso(args) -> int:
     check_outputs({"-o/--output": args.output, "--summary": args.summary}, inputs={"path": args.path},
                   also={"--checkpoint": args.checkpoint})
     packing = read_packing(args.path)
-    result = run_calippso(
+    result = run_discarding_stale(args, lambda: run_calippso(
         packing, max_iterations=args.max_iterations, inflation_tolerance=args.inflation_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
         crossover=args.crossover,
-    )
+    ))
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.completed:
         summary.update(distributions(result))

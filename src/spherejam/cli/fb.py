@@ -8,6 +8,8 @@ from pathlib import Path
 from ..core.output_paths import check_outputs, output_file
 from ..core.validation import FB_ITERATIONS, FIELDS, INTERVAL, SECONDS
 from . import EXIT_FAILED
+from .stale_checkpoint import add_option as add_stale_checkpoint_option
+from .stale_checkpoint import run_discarding_stale
 
 
 def register(sub) -> None:
@@ -28,6 +30,7 @@ def register(sub) -> None:
     p.add_argument("--checkpoint", type=output_file, help="checkpoint file: resumed from if present")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds, 0 = every iteration (default 300)")
+    add_stale_checkpoint_option(p)
     p.add_argument("--max-iterations", type=FB_ITERATIONS.arg,
                    help="stop after this many iterations; the unfinished packing is written (completed false, exit 1)")
     p.add_argument("--max-wall-time", type=SECONDS.arg,
@@ -43,11 +46,11 @@ def _fb(args) -> int:
 
     check_outputs({"-o/--output": args.output}, inputs={"input": args.input}, also={"--checkpoint": args.checkpoint})
     start = read_packing(args.input, tolerance=None)  # FB accepts overlapping starts
-    result = run_fb(
+    result = run_discarding_stale(args, lambda: run_fb(
         start, args.rate, phi_nominal=args.phi_nominal, max_iterations=args.max_iterations,
         max_wall_time=args.max_wall_time, checkpoint=args.checkpoint,
         checkpoint_interval=args.checkpoint_interval, progress_interval=args.progress_interval,
-    )
+    ))
     c = result.stats
     if c.stop_reason == "max_wall_time":
         # no output: Snakemake would take it for the result; the kept checkpoint lets a rerun continue

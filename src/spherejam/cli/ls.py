@@ -16,6 +16,8 @@ from ..core.validation import (
     UNIT_OPEN,
 )
 from . import seed_int
+from .stale_checkpoint import add_option as add_stale_checkpoint_option
+from .stale_checkpoint import run_discarding_stale
 
 
 def _ls_rate(text: str) -> float:
@@ -45,6 +47,7 @@ def add_event_driven_options(p) -> None:
                    help="checkpoint file: saved periodically, resumed from if present, removed when done")
     p.add_argument("--checkpoint-interval", type=INTERVAL.arg, default=300.0,
                    help="seconds between checkpoints, 0 = every window (default 300)")
+    add_stale_checkpoint_option(p)
     p.add_argument("--progress-interval", type=INTERVAL.arg, default=10.0,
                    help="seconds between progress lines, 0 = every window (default 10)")
 
@@ -93,6 +96,6 @@ def _ls(args) -> int:
         raise InputError("--rate=0: never reaches p_max; give --max-collisions, --target-phi or --max-wall-time")
     check_paths(args)
     packing = read_packing(args.input)
-    result = run_ls(packing, args.rate, target_phi=args.target_phi, max_collisions=args.max_collisions,
-                    **engine_options(args))
+    result = run_discarding_stale(args, lambda: run_ls(
+        packing, args.rate, target_phi=args.target_phi, max_collisions=args.max_collisions, **engine_options(args)))
     return finish(args, result, "LS")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..core.validation import FIELDS, check_mls
 from .ls import add_event_driven_options, check_paths, engine_options, finish
+from .stale_checkpoint import run_discarding_stale
 
 
 def register(sub) -> None:
@@ -39,10 +40,10 @@ def _mls(args) -> int:
     max_collisions = None
     if args.max_collisions_per_particle is not None:
         max_collisions = max(1, int(round(args.max_collisions_per_particle * packing.n)))
-    result = find_closest_jamming(
+    result = run_discarding_stale(args, lambda: find_closest_jamming(
         packing, initial_rate=args.initial_rate, decrease_factor=args.decrease_factor, final_rate=args.final_rate,
         max_equilibration_windows=args.max_equilibration_windows, max_collisions=max_collisions,
         stall_windows=None if args.no_stall_rule else (args.stall_windows or DEFAULT_STALL_WINDOWS),
         **engine_options(args),
-    )
+    ))
     return finish(args, result, f"MLS stages={result.stats.extras.stages}")

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_output, remove_leftovers
-from .errors import PackingFileError
+from .errors import PackingFileError, StaleCheckpointError
 from .packing_io import dumps
 from .validation import INTERVAL
 
@@ -57,8 +57,9 @@ class Checkpoint:
         """(arrays, attributes, history columns) of an existing checkpoint of this run, or None if there is none.
         Temporary files that an interrupted save left next to the checkpoint are deleted first.
 
-        Raises :class:`PackingFileError` if the file is unreadable, of another engine, or of another input or
-        parameters (it names the file; delete it to start over)."""
+        Raises :class:`PackingFileError` if the file is unreadable or of another engine, and its subclass
+        :class:`StaleCheckpointError` if it is of another input or parameters (it names the file; delete it to
+        start over)."""
         if self.path is None:
             return None
         for leftover in remove_leftovers(self.path, ".h5"):  # a save killed midway (kill -9, node failure)
@@ -67,8 +68,8 @@ class Checkpoint:
             return None
         arrays, attrs = load_checkpoint(self.path, self.kind)
         if attrs.get("fingerprint") != self.fingerprint:
-            raise PackingFileError(f"{self.path}: checkpoint of a different input or parameters; delete it to start "
-                                   "over")
+            raise StaleCheckpointError(self.path, f"{self.path}: checkpoint of a different input or parameters; "
+                                       "delete it to start over")
         history = {k[len(_HISTORY):]: v for k, v in arrays.items() if k.startswith(_HISTORY)}
         arrays = {k: v for k, v in arrays.items() if not k.startswith(_HISTORY)}
         return arrays, attrs, history

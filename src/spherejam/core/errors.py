@@ -19,6 +19,17 @@ class PackingFileError(SpherejamError, OSError):
     """A packing, checkpoint or dataset file is missing, malformed or fails validation."""
 
 
+class StaleCheckpointError(PackingFileError):
+    """A checkpoint exists for this output but was written for another input or other parameters.
+
+    The library refuses to resume it (a hand-run resume must not silently restart); the workflow, which reruns a
+    job precisely because its input changed, discards it (``--discard-stale-checkpoint``)."""
+
+    def __init__(self, path, message: str):
+        super().__init__(message)
+        self.path = path
+
+
 class OverlapError(SpherejamError):
     """A packing has overlapping spheres beyond the tolerance (it must never become a result)."""
 

@@ -394,9 +394,11 @@ class Experiment:
 def mls_command(initial_rate: str, decrease_factor: str, final_rate: str) -> str:
     """The shell line of an MLS job, with Snakemake placeholders: the rate ladder as given (the config's through the
     job's params, a validation-grid run's through its wildcards), the rest from the job's params ``p_max``,
-    ``max_eq``, ``seed``, ``options`` (:meth:`Experiment.mls_options`) and ``checkpoint``."""
+    ``max_eq``, ``seed``, ``options`` (:meth:`Experiment.mls_options`) and ``checkpoint`` (a stale one, of an older
+    input, is discarded)."""
     return (
         f"spherejam mls {{input}} --initial-rate {initial_rate} --decrease-factor {decrease_factor}"
         f" --final-rate {final_rate} --p-max {{params.p_max}} --max-equilibration-windows {{params.max_eq}}"
-        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} -o {output} > {log} 2>&1"
+        " --seed {params.seed} {params.options} --checkpoint {params.checkpoint} --discard-stale-checkpoint"
+        " -o {output} > {log} 2>&1"
     )
