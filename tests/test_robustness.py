@@ -25,6 +25,8 @@ from spherejam.core.packing_io import read_packing, write_packing
 from spherejam.core.seeding import poisson_packing
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
+#: The device numbers of /dev/null, for a private node with the same device (the real /dev is never touched).
+_NULL_NUMBERS = os.stat(os.devnull).st_rdev
 
 
 def cli(*args):
@@ -86,7 +88,7 @@ def test_the_null_device_discards_the_output(tmp_path):
     if os.geteuid() != 0:
         pytest.skip("mknod needs root")
     null = tmp_path / "null"  # a private node with /dev/null's numbers: the same device, not the real /dev
-    os.mknod(null, 0o666 | stat.S_IFCHR, os.makedev(*divmod(os.stat(os.devnull).st_rdev, 256)))
+    os.mknod(null, 0o666 | stat.S_IFCHR, _NULL_NUMBERS)
     assert os.stat(null).st_rdev == os.stat(os.devnull).st_rdev
     code, err, out = cli("seed", "--n", 10, "-o", null)
     assert code == 0, err
@@ -458,3 +460,23 @@ def test_a_special_file_as_input_is_refused_not_read(tmp_path):
     fifo = _special_files(tmp_path)["fifo"]
     code, err, _ = cli("info", fifo)
     assert code == 2 and len(err) == 1 and "is a FIFO, not a packing file" in err[0], err
+
+
+def test_grid_values_that_share_a_path_are_refused():
+    from spherejam.workflow.experiment import Experiment
+
+    config = {"n": 20, "seed": 1, "sigmas": [0.0], "ls": {"rates": [0.1]}, "fb": {"rates": [0.01]},
+              "validation_grid": {"enabled": True, "sigmas": [0.0], "ls_rates": [0.1],
+                                  "initial_rates": [10, 10.0000001], "decrease_factors": [2], "final_rates": [1e-3]}}
+    with pytest.raises(InputError, match=r"validation_grid.initial_rates\[1\]"):
+        Experiment(config)
+
+
+def test_a_figure_to_the_null_device_is_refused(tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("mknod needs root")
+    null = tmp_path / "null"
+    os.mknod(null, 0o666 | stat.S_IFCHR, _NULL_NUMBERS)
+    code, err, _ = cli("figure", "fig2", tmp_path / "ds.nc", "-o", null)
+    assert code == 2 and len(err) == 1 and "not a stem" in err[0], err
+    assert os.listdir(tmp_path) == ["null"]

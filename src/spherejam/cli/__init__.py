@@ -5,9 +5,9 @@ modules (numba engines) are imported only when their command runs, so ``sphereja
 Errors a user can cause print one line ``spherejam <cmd>: error: ...`` and exit with status 2 (bad input) or 1
 (a check failed); the long runs (``ls``, ``mls``, ``fb``, ``calippso``) stopped by SIGTERM or SIGINT save their
 checkpoint and exit with 128 + the signal number (:mod:`spherejam.core.interrupt`). Every command checks its output
-paths before any work (:mod:`spherejam.core.output_paths`) and takes
-its numeric limits from :mod:`spherejam.core.validation`. A closed pipe (``spherejam info x | head -1``) ends the
-command quietly with status 141, as a killed-by-SIGPIPE program would.
+paths before any work (:mod:`spherejam.core.output_paths`) and takes its numeric limits from
+:mod:`spherejam.core.validation`. A closed pipe (``spherejam info x | head -1``) ends the command quietly with status
+141, as a killed-by-SIGPIPE program would.
 """
 
 from __future__ import annotations

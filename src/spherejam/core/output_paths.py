@@ -103,6 +103,9 @@ def figure_stem(raw: PathLike, default_name: str) -> Path:
     text = os.fspath(raw)
     if text == "":
         raise InputError("-o/--output='': an empty path")
+    if is_null_device(text):  # STEM.png beside /dev/null would be a new file in /dev, not a discarded figure
+        raise InputError(f"-o/--output={text!r}: a figure is written as STEM.png and STEM.pdf; the null device is "
+                         "not a stem")
     if text.endswith(("/", os.sep)) or Path(text).is_dir():
         return Path(text) / default_name
     return Path(text)

@@ -274,6 +274,8 @@ class Experiment:
         self.grid_enabled = bool(grid.get("enabled", False))
         self.grid = grid
         if self.grid_enabled:
+            for key in ("sigmas", "ls_rates", "initial_rates", "decrease_factors", "final_rates"):
+                check_distinct_paths(grid.get(key, []), f"validation_grid.{key}")
             for sigma in grid.get("sigmas", []):
                 if fmt(sigma) not in known:  # its LS packings would not be in the experiment either
                     raise InputError(f"validation_grid.sigmas={fmt(sigma)}: not one of sigmas")
