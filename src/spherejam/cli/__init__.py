@@ -21,7 +21,7 @@ from ..core.errors import InputError, PackingFileError, SpherejamError
 from ..core.progress import live_status
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
-COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls", "cost",
+COMMAND_MODULES = ("packing_commands", "psd", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls", "cost",
                    "render")
 
 EXIT_BAD_INPUT = 2
