@@ -32,9 +32,9 @@ rule render_fig1:
         png=report(PATHS.figure("png", "fig1"), caption="../report/fig1.rst", category="Figures"),
         pdf=PATHS.figure("pdf", "fig1"),
     params:
-        sigma=EXP.figure1_run().sigma,
+        options=EXP.figure1_options(),
     log:
         PATHS.figure_log("fig1"),
     localrule: True
     shell:
-        "spherejam render {input} --sigma {params.sigma} -o {output.png} -o {output.pdf} > {log} 2>&1"
+        "spherejam render {input} {params.options} -o {output.png} -o {output.pdf} > {log} 2>&1"

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from spherejam.cli import main
 from spherejam.core import validation
 from spherejam.core.errors import InputError
-from spherejam.core.validation import FIELDS, Bound, validate_config
+from spherejam.core.validation import FIELDS, Bound
+from spherejam.workflow.config import check_config, validate_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "config" / "schema.yaml"
@@ -254,7 +255,7 @@ def test_extra_rates_count_toward_the_run_limit():
     from spherejam.core.validation import MAX_RUNS
 
     cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
-    validation.check_config(cfg)
+    check_config(cfg)
     cfg["ls"]["extra_rates"] = [{"sigmas": cfg["sigmas"], "rates": {"min": 1e-4, "max": 1.0, "count": MAX_RUNS}}]
     with pytest.raises(InputError, match="runs: at most"):
-        validation.check_config(cfg)
+        check_config(cfg)

@@ -24,8 +24,8 @@ from ..core.atomic import atomic_output
 from ..core.errors import InputError, PackingFileError
 from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
-from ..core.validation import check_config
 from ..engines.result import RunStats, stats_from_metadata
+from .config import check_config
 from .experiment import Experiment, GridRun, Run, config_hash
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
@@ -73,7 +73,7 @@ COORDS: dict[str, tuple[str, str]] = {
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
     """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
 
-    The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) and makes
+    The config passes :func:`spherejam.workflow.config.check_config` (every limit and consistency rule) and makes
     an :class:`Experiment` (the design's own checks) first."""
     check_config(config)
     Experiment(config)  # its constructor checks the design (the sigmas of the extra rates and of the grid)
