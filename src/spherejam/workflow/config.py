@@ -153,9 +153,26 @@ def validate_config(config: dict, schema_path: str | os.PathLike) -> dict:
                 where = ".".join([*([where] if error.absolute_path else []), str(missing[0])])
                 raise InputError(f"{where}: required key missing (a --configfile must be complete by itself)")
             raise InputError(f"{where}={_short(error.instance)}: {error.message}")
+        fill_table_defaults(config)
         return check_config(config)
     except InputError as exc:
         raise InputError(f"config: {exc}") from None
+
+
+def fill_table_defaults(config: dict) -> dict:
+    """Write the defaults of the table sections (``fits``, ``bands``, ``fast``, ``gcp_monodisperse``) into a
+    config. Their one source is the code that uses them (:mod:`spherejam.workflow.tables`, :mod:`.bands`); the
+    schema states only their limits."""
+    from .bands import BAND_DEFAULTS
+    from .tables import FAST_DEFAULTS, FIT_DEFAULTS, GCP_MONODISPERSE
+
+    for section, defaults in (("fits", FIT_DEFAULTS), ("bands", BAND_DEFAULTS), ("fast", FAST_DEFAULTS)):
+        node = config.setdefault(section, {})
+        if isinstance(node, dict):
+            for key, value in defaults.items():
+                node.setdefault(key, value)
+    config.setdefault("gcp_monodisperse", GCP_MONODISPERSE)
+    return config
 
 
 def _deepest(error):
