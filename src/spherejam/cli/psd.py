@@ -29,6 +29,11 @@ def register(sub) -> None:
     p.set_defaults(func=_psd)
 
 
+def box_side(diameters) -> float:
+    """Side L of the periodic cube in which mean-1 ``diameters`` fill PHI_BOX (a typical jamming density)."""
+    return (len(diameters) * math.pi / 6 * float((diameters**3).mean()) / PHI_BOX) ** (1 / 3)
+
+
 def describe(spec: str, n: int | None = None, seed: int = 0, phi_mono: float | None = None) -> dict:
     """Everything ``spherejam psd`` prints, as a dict."""
     from ..analysis.psd_models import predictions
@@ -45,7 +50,7 @@ def describe(spec: str, n: int | None = None, seed: int = 0, phi_mono: float | N
         n = dist.fixed_n
     if n is not None:
         d = dist.draw(n, rng_for(seed))
-        box = (n * math.pi / 6 * float((d**3).mean()) / PHI_BOX) ** (1 / 3)
+        box = box_side(d)
         out["sample"] = {"n": int(n), "seed": int(seed), **sample_descriptors(d).as_dict(),
                          "box_at_phi": PHI_BOX, "box": box, "box_over_dmax": box / float(d.max())}
     out["models"] = [{"model": p.model, "phi_rcp": p.phi, "in_range": p.in_range, "validity": p.note,

@@ -98,6 +98,7 @@ def _rcp(args) -> int:
     print(f"spherejam rcp: N = {exp.n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
           f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
           f"CALiPPSO), results in {exp.results}")
+    _warn_box(exp)
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
     cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
@@ -130,6 +131,19 @@ def _rcp(args) -> int:
         raise SpherejamError(f"the workflow failed (exit {code}); see {log} and the job logs in {exp.results}/logs")
     print_summary(exp.paths.table("table4", "csv"), exp.paths.table("table3", "csv"))
     return 0
+
+
+def _warn_box(exp) -> None:
+    """Warn about distributions whose largest sphere (in a sample of N) leaves the box below the engines' limit."""
+    from ..core.seeding import rng_for
+    from .psd import BOX_LIMIT, box_side
+
+    for d in exp.distributions:
+        sample = d.model().draw(exp.n, rng_for(0))
+        ratio = box_side(sample) / float(sample.max())
+        if ratio <= BOX_LIMIT:
+            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; the LS/MLS "
+                  f"engines need L > {BOX_LIMIT:g} d_max and will stop with 'box too small' (raise --n)", flush=True)
 
 
 def _interval(value: float, half: float, n: str) -> str:
