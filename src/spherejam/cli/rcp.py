@@ -139,8 +139,12 @@ def _warn_box(exp) -> None:
     from .psd import BOX_LIMIT, box_side
 
     for d in exp.distributions:
-        sample = d.model().draw(exp.n, rng_for(0))
-        ratio = box_side(sample) / float(sample.max())
+        model = d.model()
+        samples = [model.draw(exp.n, rng_for(seed)) for seed in range(20)]
+        # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
+        _, d_max = model.support()[0].min(), model.support()[0].max()
+        bounded = math.isfinite(model.descriptors().size_ratio)
+        ratio = min(box_side(x) / (d_max if bounded else float(x.max())) for x in samples)
         if ratio <= BOX_LIMIT:
             print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; the LS/MLS "
                   f"engines need L > {BOX_LIMIT:g} d_max and will stop with 'box too small' (raise --n)", flush=True)
