@@ -269,10 +269,11 @@ def fig5(ds):
             label=f"Santos et al. 2014 (φ$_{{mono}}$ = {phi_mono:.4f})", gid="santos")
     delta, families = _table4_distributions(t4)
     other = [i for i, f in enumerate(families) if f != "lognormal"]
-    for m, colour in (("farr_groot", "tab:blue"), ("desmond_weeks", "tab:green"), ("santos", "tab:olive")):
+    for m, colour, name in (("farr_groot", "tab:blue", "Farr–Groot"), ("desmond_weeks", "tab:green", "Desmond–Weeks"),
+                            ("santos", "tab:olive", "Santos et al.")):
         if other and f"model_{m}" in t4:
             ax.plot(delta[other], t4[f"model_{m}"].values[other], "_", color=colour, ms=12, mew=2, ls="none",
-                    gid=f"model_{m}_marks")
+                    gid=f"model_{m}_marks", label=f"{name} at each other distribution")
     styles = (("phi_LT", "tab:red", "φ$_{LT}$"), ("phi_RCP", "m", "φ$_{RCP}$"), ("phi_GCP", "c", "φ$_{GCP}$"))
     for col, colour, name in styles:
         for family in dict.fromkeys(families):
