@@ -136,3 +136,16 @@ def test_rcp_summary_prints_intervals_or_not_estimable(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "gauss (gaussian:delta=0.2)" in out and "Desmond–Weeks" in out
     assert "CI not estimable (n = 6 LS + 6 FB fast packings)" in out  # quantile CIs need n >= 72
+
+
+def test_rcp_reports_each_failed_jobs_error(tmp_path):
+    from spherejam.cli.rcp import failed_jobs
+
+    job_log = tmp_path / "r0.log"
+    job_log.write_text("progress...\nspherejam ls: error: box L=6.2 is too small for the largest sphere (diameter "
+                       "2.53): the minimum image convention needs L > ~2.5 diameters (too few spheres?)\n")
+    log = tmp_path / "snakemake.log"
+    log.write_text(f"1 of 9 steps (11%) done\nError in rule ls:\n    jobid: 7\n    log: {job_log} (check log file(s) "
+                   "for error details)\n    shell:\n        spherejam ls ...\n")
+    (line,) = failed_jobs(log)
+    assert line.startswith(str(job_log)) and "needs L > ~2.5 diameters" in line

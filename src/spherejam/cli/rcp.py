@@ -117,7 +117,7 @@ def _rcp(args) -> int:
     log.parent.mkdir(parents=True, exist_ok=True)
     cmd = ["snakemake", "--cores", str(args.cores), "--configfile", str(cfg_path.resolve()), "--snakefile",
            str((args.workflow / "Snakefile").resolve()), "--directory", str(args.workflow.resolve()),
-           "--rerun-incomplete", *targets]
+           "--rerun-incomplete", "--keep-going", *targets]
     print(f"running: {' '.join(cmd)}  (full log: {log})", flush=True)
     with open(log, "w") as fh:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -128,9 +128,23 @@ def _rcp(args) -> int:
                 print(f"  {line.rstrip()}", flush=True)
         code = proc.wait()
     if code != 0:
+        for line in failed_jobs(log):
+            print(f"  failed: {line}", flush=True)
         raise SpherejamError(f"the workflow failed (exit {code}); see {log} and the job logs in {exp.results}/logs")
     print_summary(exp.paths.table("table4", "csv"), exp.paths.table("table3", "csv"))
     return 0
+
+
+def failed_jobs(log: Path) -> list[str]:
+    """``job log: its last line`` for every job the workflow log reports as failed (the job's one-line error)."""
+    text = Path(log).read_text(errors="replace")
+    out = []
+    for block in text.split("Error in rule ")[1:]:
+        m = re.search(r"^\s*log: (\S+)", block, re.M)
+        if m and Path(m.group(1)).is_file():
+            lines = [x for x in Path(m.group(1)).read_text(errors="replace").splitlines() if x.strip()]
+            out.append(f"{m.group(1)}: {lines[-1] if lines else '(empty log)'}")
+    return out
 
 
 def _warn_box(exp) -> None:
