@@ -50,7 +50,8 @@ _NUMBER = r"[0-9][0-9.e+-]*"
 NAME_PATTERN = r"[A-Za-z][A-Za-z0-9_-]*"
 _SHORTHAND = re.compile(r"sigma([0-9][0-9.e+-]*)")
 #: What each wildcard of the keys may match (the workflow's global ``wildcard_constraints``).
-WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "dist": NAME_PATTERN.replace("_-]", "_.+-]"),
+#: ``dist`` is a name or ``sigma`` followed by a number (``sigma0.1``, ``sigma1e-05``).
+WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za-z0-9_.+-]*",
                         "rate": _NUMBER, "replica": r"\d+", "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
 
 #: The files of one packing below ``packings/<run key>/``, by stage: the Poisson start, the LS or FB output, the MLS
