@@ -8,7 +8,8 @@ rule figure:
     conda:
         "../envs/spherejam.yaml"
     input:
-        PATHS.dataset,
+        dataset=PATHS.dataset,
+        psd=EXP.psd_inputs(),  # Fig. 5's models read the distributions' files
     output:
         png=report(PATHS.figure("png"), caption="../report/figure.rst", category="Figures"),
         pdf=PATHS.figure("pdf"),
@@ -20,7 +21,7 @@ rule figure:
         PATHS.figure_log(),
     localrule: True
     shell:
-        "spherejam figure {wildcards.name} {input} -o {params.stem} > {log} 2>&1"
+        "spherejam figure {wildcards.name} {input.dataset} -o {params.stem} > {log} 2>&1"
 
 
 rule render_fig1:

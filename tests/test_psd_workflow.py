@@ -149,3 +149,31 @@ def test_rcp_reports_each_failed_jobs_error(tmp_path):
                    "for error details)\n    shell:\n        spherejam ls ...\n")
     (line,) = failed_jobs(log)
     assert line.startswith(str(job_log)) and "needs L > ~2.5 diameters" in line
+
+
+def test_psd_file_is_an_input_of_the_jobs_that_read_it(tmp_path):
+    """A table: file named in a config is an input of the seeding, dataset, table and figure jobs (dry run)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import yaml
+
+    root = Path(__file__).resolve().parents[1]
+    powder = tmp_path / "powder.csv"
+    powder.write_text("size,volume\n1,0.5\n1.3,0.5\n")
+    config = yaml.safe_load((root / "config" / "psd.yaml").read_text())
+    config.update(results=str(tmp_path / "res"), n=20, replicas=1, distributions={"powder": f"table:{powder}"})
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(config))
+    target = tmp_path / "res" / "figures" / "fig5.png"
+    r = subprocess.run([sys.executable, "-m", "snakemake", str(target), str(tmp_path / "res" / "tables" / "table4.csv"),
+                        "-n", "--cores", "1", "--configfile",
+                        str(tmp_path / "c.yaml")], cwd=root, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    import re
+
+    jobs = re.split(r"\n\s*(?:local)?rule ", r.stdout + r.stderr)
+    for rule in ("seed", "dataset", "tables", "figure"):
+        blocks = [b for b in jobs if b.startswith(f"{rule}:")]
+        assert blocks and all(str(powder) in b.split("output:")[0] for b in blocks), rule
+    assert Experiment(config).psd_inputs() == [str(powder)]

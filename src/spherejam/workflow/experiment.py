@@ -396,6 +396,10 @@ class Experiment:
         order = {d.key: i for i, d in enumerate(self.distributions)}
         return max(runs, key=lambda r: (r.sigma if r.sigma == r.sigma else -1.0, -order[r.dist], r.rate))
 
+    def psd_inputs(self) -> list[str]:
+        """Every PSD file of the experiment's distributions (inputs of the dataset, table and figure jobs too)."""
+        return sorted({f for d in self.distributions for f in d.files})
+
     def figure1_options(self) -> str:
         """The ``spherejam render`` label flag of Fig. 1: ``--sigma S`` for a ``sigmas`` run (else the sample's)."""
         sigma = self.figure1_run().sigma
