@@ -39,6 +39,8 @@ def register(sub) -> None:
     p.add_argument("-o", "--results", type=Path, default=Path("results") / "psd", help="results folder")
     p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=2, help="cores for the workflow (2)")
     p.add_argument("--workflow", type=Path, default=Path("."), help="the repository with the Snakefile (.)")
+    p.add_argument("--template", type=Path, default=None,
+                   help=f"the workflow config to fill in (default: {TEMPLATE} of the repository)")
     p.add_argument("--dry-run", action="store_true", help="print the config and the cost estimate only")
     p.set_defaults(func=_rcp)
 
@@ -68,10 +70,12 @@ def build_config(args) -> dict:
 
     from ..core.size_distribution import parse
 
-    template = args.workflow / TEMPLATE
-    if not (args.workflow / "Snakefile").is_file() or not template.is_file():
-        raise InputError(f"--workflow={str(args.workflow)!r}: no Snakefile and {TEMPLATE} there (run from the "
-                         "spherejam repository, or give its path)")
+    template = args.template or args.workflow / TEMPLATE
+    if not (args.workflow / "Snakefile").is_file():
+        raise InputError(f"--workflow={str(args.workflow)!r}: no Snakefile there (run from the spherejam "
+                         "repository, or give its path)")
+    if not template.is_file():
+        raise InputError(f"--template={str(template)!r}: no such config file")
     config = yaml.safe_load(template.read_text())
     dists = named_specs(args.specs)
     for name, spec in dists.items():
@@ -102,7 +106,8 @@ def _rcp(args) -> int:
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
     cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
-    print(f"about {cpu_h * 60:.0f} CPU-minutes, {cpu_h * 60 / args.cores:.0f} min on {args.cores} cores")
+    print(f"about {cpu_h * 60:.2g} CPU-minutes, {cpu_h * 60 / args.cores:.2g} min on {args.cores} cores (an idle "
+          "machine)")
     if args.dry_run:
         print(yaml.safe_dump(config, sort_keys=False))
         return 0
