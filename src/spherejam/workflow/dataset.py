@@ -215,8 +215,9 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
-    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma, with the
-    small-argument power-law exponents fitted on the pooled samples."""
+    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma of the ``sigmas``
+    runs (named distributions are not pooled), with the small-argument power-law exponents fitted on the pooled
+    samples."""
     from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
@@ -345,7 +346,7 @@ def build_dataset(manifest_path: str | os.PathLike):
             initial_rate=("grid_run", np.array([g.initial_rate for g in grid_runs])),
             final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
         )
-    if exp.config.get("calippso", {}).get("enabled", True):
+    if exp.config.get("calippso", {}).get("enabled", True) and exp.sigmas:  # pooled per sigma of the sigmas runs
         dist = collect_distributions(exp)
         coords.update(dist.pop("_coords"))
         data_vars.update(dist)

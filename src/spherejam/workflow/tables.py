@@ -12,7 +12,7 @@
   models of :mod:`spherejam.analysis.psd_models` (Farr-Groot, Desmond-Weeks, Santos et al.) with ours - model.
 
 Rows are per size distribution (the dataset's ``distribution``): the ``sigmas`` in ascending order, then the named
-distributions in config order. A dataset with named distributions gets a ``distribution`` column (its key); one with
+distributions by delta. A dataset with named distributions gets a ``distribution`` column (its key); one with
 ``sigmas`` only has the columns of spherejam 0.1. The paper's values appear where the paper has that distribution
 (a log-normal with one of its sigmas); a monodisperse distribution (delta = 0) is not fitted in Table 2 and takes the
 conventional phi_GCP.
@@ -97,8 +97,11 @@ def _groups(df: pd.DataFrame) -> list[dict]:
             paper_sigma = float(parse(spec).sigma)
         groups[key] = {"distribution": key, "sigma": float(sigma), "paper_sigma": paper_sigma,
                        "delta": float(delta), "psd": str(spec)}
+    # sigmas by sigma, then named ones by delta and name (the manifest stores the config with sorted keys, so the
+    # config's own order is not known here)
     return sorted(groups.values(), key=lambda g: (not math.isfinite(g["sigma"]),
-                                                 g["sigma"] if math.isfinite(g["sigma"]) else 0.0))
+                                                 g["sigma"] if math.isfinite(g["sigma"]) else g["delta"],
+                                                 g["distribution"]))
 
 
 def _has_named(df: pd.DataFrame) -> bool:
