@@ -6,11 +6,11 @@ import os
 from snakemake.exceptions import WorkflowError
 
 from spherejam.core.errors import InputError
-from spherejam.core.validation import load_config_file, validate_config
+from spherejam.workflow.config import load_config_file, validate_config
 from spherejam.workflow.cost_model import job_resources
 from spherejam.workflow.experiment import FIGURE_NAMES, WILDCARD_CONSTRAINTS, Experiment, GridRun, mls_command
 
-try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.core.validation, and
+try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.workflow.config, and
     # the design (paths that must not collide)
     for path in workflow.configfiles:  # Snakemake's loader keeps the last of a repeated key: refuse the file
         load_config_file(path)

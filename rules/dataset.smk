@@ -21,6 +21,7 @@ rule dataset:
     input:
         manifest=PATHS.manifest,
         runs=EXP.dataset_inputs(),
+        psd=EXP.psd_inputs(),  # the dataset records each distribution's descriptors, read from its file
     output:
         PATHS.dataset,
     log:

@@ -8,7 +8,8 @@ rule figure:
     conda:
         "../envs/spherejam.yaml"
     input:
-        PATHS.dataset,
+        dataset=PATHS.dataset,
+        psd=EXP.psd_inputs(),  # Fig. 5's models read the distributions' files
     output:
         png=report(PATHS.figure("png"), caption="../report/figure.rst", category="Figures"),
         pdf=PATHS.figure("pdf"),
@@ -20,7 +21,7 @@ rule figure:
         PATHS.figure_log(),
     localrule: True
     shell:
-        "spherejam figure {wildcards.name} {input} -o {params.stem} > {log} 2>&1"
+        "spherejam figure {wildcards.name} {input.dataset} -o {params.stem} > {log} 2>&1"
 
 
 rule render_fig1:
@@ -32,9 +33,9 @@ rule render_fig1:
         png=report(PATHS.figure("png", "fig1"), caption="../report/fig1.rst", category="Figures"),
         pdf=PATHS.figure("pdf", "fig1"),
     params:
-        sigma=EXP.figure1_run().sigma,
+        options=EXP.figure1_options(),
     log:
         PATHS.figure_log("fig1"),
     localrule: True
     shell:
-        "spherejam render {input} --sigma {params.sigma} -o {output.png} -o {output.pdf} > {log} 2>&1"
+        "spherejam render {input} {params.options} -o {output.png} -o {output.pdf} > {log} 2>&1"

@@ -1,15 +1,19 @@
-# Poisson seeding: one independent configuration per (protocol, sigma, gamma, replica).
+# Poisson seeding: one independent configuration per (protocol, distribution, gamma, replica). A table: or list:
+# distribution's file is an input, so editing it reruns everything that depends on it.
 
 
 rule seed:
     conda:
         "../envs/spherejam.yaml"
+    input:
+        EXP.psd_files,
     output:
         PATHS.packing("poisson"),
     params:
         n=EXP.n,
         phi_nominal=config["phi_nominal"],
         seed=EXP.run_seed("poisson"),
+        psd=EXP.psd,
     log:
         PATHS.log("seed"),
     resources:
@@ -17,5 +21,5 @@ rule seed:
     group:
         "generation"
     shell:
-        "spherejam seed --n {params.n} --sigma {wildcards.sigma} --seed {params.seed}"
+        "spherejam seed --n {params.n} --psd {params.psd:q} --seed {params.seed}"
         " --phi-nominal {params.phi_nominal} -o {output} > {log} 2>&1"

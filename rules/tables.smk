@@ -6,7 +6,8 @@ rule tables:
     conda:
         "../envs/spherejam.yaml"
     input:
-        PATHS.dataset,
+        dataset=PATHS.dataset,
+        psd=EXP.psd_inputs(),  # Table 4's models read the distributions' files
     output:
         report(PATHS.tables(["csv"]), caption="../report/tables.rst", category="Tables"),
         PATHS.tables(["md", "tex"]),
@@ -20,4 +21,4 @@ rule tables:
         PATHS.experiment_log("tables"),
     localrule: True
     shell:
-        "spherejam tables {input} --outdir {params.outdir} > {log} 2>&1"
+        "spherejam tables {input.dataset} --outdir {params.outdir} > {log} 2>&1"

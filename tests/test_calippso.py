@@ -443,7 +443,7 @@ def test_threads_config_key_is_validated(bad):
 
     import yaml
 
-    from spherejam.core.validation import check_config, validate_config
+    from spherejam.workflow.config import check_config, validate_config
     from spherejam.workflow.cost_model import cpus_per_task, job_resources
     from spherejam.workflow.experiment import Experiment
 

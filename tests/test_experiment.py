@@ -89,7 +89,8 @@ def test_rule_patterns_match_the_runs_files_and_give_back_the_run():
         w = _wildcards(exp.paths.grid(), str(exp.grid_path(g)))
         assert GridRun.from_wildcards(w) == g
         assert exp.paths.packing("initial").format(**vars(w)) == str(exp.path(g.source, "initial"))
-    assert RUN_KEY.format(protocol="ls", sigma="0.1", rate="0.5", replica=0) == Run("ls", 0.1, 0.5, 0).key
+    key = RUN_KEY.format(protocol="ls", dist="sigma0.1", rate="0.5", replica=0)
+    assert key == Run("ls", 0.1, 0.5, 0).key == "ls/sigma0.1/rate0.5/r0"
     assert GRID_KEY.startswith(RUN_KEY)
 
 
@@ -112,7 +113,7 @@ def test_paths_and_seeds_are_those_of_existing_results_folders():
     assert exp.paths.tables(["csv"])[0] == f"{r}/tables/table2.csv" and exp.paths.dataset == f"{r}/dataset.nc"
 
     def wildcards(run):
-        return SimpleNamespace(protocol=run.protocol, sigma=f"{run.sigma:g}", rate=f"{run.rate:g}",
+        return SimpleNamespace(protocol=run.protocol, dist=run.dist, rate=f"{run.rate:g}",
                                replica=str(run.replica))
 
     assert exp.run_seed("poisson")(wildcards(Run("fb", 0.1, 1e-5, 0))) == 1500353117813921369

@@ -128,6 +128,8 @@ def test_fig4_each_sigma_on_its_own_bins(ds):
 
 
 def test_fig5_farr_groot_and_paper_table4(ds):
+    from spherejam.workflow.tables import compute_tables
+
     fig = figures.fig5(ds)
     lines = {line.get_gid(): line for line in fig.axes[0].lines}
     fg = lines["farr_groot"]
@@ -143,6 +145,13 @@ def test_fig5_farr_groot_and_paper_table4(ds):
     assert "paper_phi_GCP_derived" in lines
     for name in ("run_phi_LT", "run_phi_RCP", "run_phi_GCP"):
         assert len(lines[name].get_xdata()) == 2
+    # the other two models along the log-normal family: Desmond-Weeks (S = 3 sigma + sigma^3), Santos (z = 1/(1+s^2))
+    dw, sa = lines["desmond_weeks"], lines["santos"]
+    x = dw.get_xdata()
+    np.testing.assert_allclose(dw.get_ydata(), 0.634 + 0.0658 * x + 0.0857 * (3 * x + x**3) * x**2)
+    phi_mono = compute_tables(ds)["table4"].santos_phi_mono.iloc[0]
+    z = 1 / (1 + sa.get_xdata() ** 2)
+    np.testing.assert_allclose(sa.get_ydata(), phi_mono / (phi_mono + (1 - phi_mono) * z))
 
 
 def test_fig6_typical_band_from_table4(ds):

@@ -433,7 +433,7 @@ def test_browse_empty_figure_names_figure(tmp_path):
 
 
 def test_duplicate_yaml_keys_are_refused(tmp_path):
-    from spherejam.core.validation import load_config_file
+    from spherejam.workflow.config import load_config_file
 
     path = tmp_path / "c.yaml"
     path.write_text("n: 20\nls:\n  rates: [0.1]\n  p_max: 1e12\n  rates: [0.5]\n")

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from spherejam.cli import main
 from spherejam.core import validation
 from spherejam.core.errors import InputError
-from spherejam.core.validation import FIELDS, Bound, validate_config
+from spherejam.core.validation import FIELDS, Bound
+from spherejam.workflow.config import check_config, validate_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "config" / "schema.yaml"
@@ -73,10 +74,29 @@ def test_shipped_configs_are_complete_and_valid(path):
         node = raw
         for part in key.split("."):
             node = node.get(part, KeyError) if isinstance(node, dict) else KeyError
-        if node is KeyError and not (key.startswith("validation_grid.") and not raw["validation_grid"]["enabled"]):
+        if node is KeyError and not (key.startswith("validation_grid.") and not raw["validation_grid"]["enabled"]) \
+                and not (key == "sigmas" and raw.get("distributions")):
             missing.append(key)
     assert not missing, f"{path.name} relies on schema defaults for {missing}"
     validate_config(raw, SCHEMA)
+
+
+def test_table_defaults_have_one_source():
+    """fits, bands, fast and gcp_monodisperse: the schema states limits only; the defaults come from the tables'
+    code, and a config without those sections gets exactly them."""
+    from spherejam.workflow.bands import BAND_DEFAULTS
+    from spherejam.workflow.tables import FAST_DEFAULTS, FIT_DEFAULTS, GCP_MONODISPERSE
+
+    schema = yaml.safe_load(SCHEMA.read_text())
+    for section in ("fits", "bands", "fast"):
+        assert all("default" not in sub for sub in schema["properties"][section]["properties"].values()), section
+    assert "default" not in schema["properties"]["gcp_monodisperse"]
+    raw = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    for section in ("fits", "bands", "fast", "gcp_monodisperse"):
+        raw.pop(section)
+    config = validate_config(raw, SCHEMA)
+    assert config["fits"] == FIT_DEFAULTS and config["bands"] == BAND_DEFAULTS and config["fast"] == FAST_DEFAULTS
+    assert config["gcp_monodisperse"] == GCP_MONODISPERSE
 
 
 def _schema_node(schema, field):
@@ -254,7 +274,7 @@ def test_extra_rates_count_toward_the_run_limit():
     from spherejam.core.validation import MAX_RUNS
 
     cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
-    validation.check_config(cfg)
+    check_config(cfg)
     cfg["ls"]["extra_rates"] = [{"sigmas": cfg["sigmas"], "rates": {"min": 1e-4, "max": 1.0, "count": MAX_RUNS}}]
     with pytest.raises(InputError, match="runs: at most"):
-        validation.check_config(cfg)
+        check_config(cfg)

@@ -24,8 +24,8 @@ from ..core.errors import InputError, PackingFileError, SpherejamError
 from ..core.progress import live_status
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
-COMMAND_MODULES = ("packing_commands", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls", "cost",
-                   "render")
+COMMAND_MODULES = ("packing_commands", "psd", "rcp", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls",
+                   "cost", "render")
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1

@@ -21,7 +21,7 @@ def _cost(args) -> int:
     import yaml
 
     from ..core.errors import InputError
-    from ..core.validation import check_config, load_config_file
+    from ..workflow.config import check_config, load_config_file
     from ..workflow.cost_model import load_configs, print_plan
 
     for path in args.configs:

@@ -11,10 +11,16 @@ from . import EXIT_FAILED, seed_int
 
 
 def register(sub) -> None:
-    p = sub.add_parser("seed", help="make a Poisson packing (uniform centres, log-normal diameters)")
-    p.add_argument("--n", type=FIELDS["n"].arg, required=True, help="number of spheres N (2 ... 10^7)")
-    p.add_argument("--sigma", type=FIELDS["sigmas[]"].arg, default=0.0,
-                   help="relative std of the diameters, 0 ... 1 (default 0)")
+    p = sub.add_parser("seed", help="make a Poisson packing (uniform centres, diameters of any size distribution)",
+                       description="Diameters from --psd SPEC (docs/psd.md): lognormal:sigma=S, gaussian:delta=D, "
+                       "uniform:ratio=R, bidisperse:ratio=R,small=X,by=number|volume, powerlaw:exponent=A,ratio=R, "
+                       "table:FILE.csv, list:FILE. --sigma S is short for --psd lognormal:sigma=S.")
+    p.add_argument("--n", type=FIELDS["n"].arg, default=None,
+                   help="number of spheres N (2 ... 10^7); with a list: distribution, N is the list's length")
+    psd = p.add_mutually_exclusive_group()
+    psd.add_argument("--psd", metavar="SPEC", default=None, help="the size distribution (default lognormal:sigma=0)")
+    psd.add_argument("--sigma", type=FIELDS["sigmas[]"].arg, default=None,
+                     help="relative std of log-normal diameters, 0 ... 1 (default 0)")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     p.add_argument("--dim", type=int, default=3, choices=(2, 3, 4, 5), help="dimension d (default 3)")
     p.add_argument(
@@ -61,14 +67,33 @@ def register(sub) -> None:
 
 
 def _seed(args) -> int:
+    from ..core.errors import InputError
     from ..core.packing_io import write_packing
     from ..core.seeding import poisson_packing
+    from ..core.size_distribution import lognormal_spec, parse
 
-    check_outputs({"-o/--output": args.output})
-    packing = poisson_packing(args.n, args.sigma, args.seed, phi_nominal=args.phi_nominal, dim=args.dim)
+    dist = parse(args.psd if args.psd is not None else lognormal_spec(args.sigma or 0.0), "--psd")
+    n = args.n
+    if dist.fixed_n is not None:
+        if n is not None and n != dist.fixed_n:
+            raise InputError(f"--n={n}: {dist.spec} holds {dist.fixed_n} diameters (leave out --n)")
+        n = dist.fixed_n
+    elif n is None:
+        raise InputError("--n: required (only a list: distribution gives N itself)")
+    check_outputs({"-o/--output": args.output}, inputs=_psd_inputs(dist))
+    packing = poisson_packing(n, seed=args.seed, phi_nominal=args.phi_nominal, dim=args.dim, psd=dist)
     write_packing(args.output, packing)
-    print(f"{args.output}: N={packing.n} d={packing.dim} sigma={args.sigma:g} seed={args.seed} phi={packing.phi:.3e}")
+    sample = packing.metadata["size_distribution"]["sample"]
+    size = (f"sigma={dist.sigma:g}" if dist.family == "lognormal"
+            else f"psd={dist.spec} delta={sample['delta']:.4f} d_max/d_min={sample['size_ratio']:.3g}")
+    print(f"{args.output}: N={packing.n} d={packing.dim} {size} seed={args.seed} phi={packing.phi:.3e}")
     return 0
+
+
+def _psd_inputs(dist) -> dict:
+    """The file a table: or list: distribution reads (an output must not overwrite it)."""
+    source = dist.provenance().get("file")
+    return {"--psd": Path(source)} if source else {}
 
 
 def summary(path: Path) -> dict:

@@ -36,6 +36,11 @@ def register(sub) -> None:
     p.add_argument("dataset", type=Path)
     p.add_argument("--protocol", choices=("ls", "fb"), help="only this protocol")
     p.add_argument("--sigma", type=finite_float, action="append", help="only this sigma (repeatable)")
+    p.add_argument("--distribution", action="append", metavar="NAME",
+                   help="only this size distribution, by key (sigma0.1 or its config name; repeatable)")
+    p.add_argument("--family", action="append", help="only distributions of this family (lognormal, gaussian, ...)")
+    p.add_argument("--delta-min", type=finite_float, help="only distributions with relative std delta >= this")
+    p.add_argument("--delta-max", type=finite_float, help="only distributions with relative std delta <= this")
     p.add_argument("--rate-min", type=finite_float, help="only gamma >= this")
     p.add_argument("--rate-max", type=finite_float, help="only gamma <= this")
     p.add_argument("--columns", help="comma-separated variables to show (default: a standard set)")
@@ -161,7 +166,9 @@ def _browse(args) -> int:
         return _browse_packing(args, ds, stem)
     cfg = json.loads(ds.attrs["config"])
     print(f"{args.dataset}: {ds.attrs.get('title', '')}")
-    print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}, {ds.sizes['packing']} packings, "
+    named = cfg.get("distributions") or {}
+    print(f"  N = {cfg.get('n')}, sigmas = {cfg.get('sigmas')}"
+          + (f", distributions = {named}" if named else "") + f", {ds.sizes['packing']} packings, "
           f"{ds.sizes.get('grid_run', 0)} validation-grid runs")
     print(f"  config hash {ds.attrs.get('config_hash')}, git {ds.attrs.get('git_commit')},"
           f" created {ds.attrs.get('created')}")
@@ -176,13 +183,29 @@ def _browse(args) -> int:
         mask &= ds.protocol.values == args.protocol
     if args.sigma:
         mask &= np.isin(np.round(ds[sig].values, 12), np.round(args.sigma, 12))
+    selectors = [(args.distribution, "distribution"), (args.family, "psd_family")]
+    bounds = [(args.delta_min, np.greater_equal), (args.delta_max, np.less_equal)]
+    if any(v for v, _ in selectors) or any(v is not None for v, _ in bounds):
+        if args.grid:
+            raise InputError("--distribution/--family/--delta-*: select packings, not validation-grid runs")
+        for wanted, coord in selectors:
+            if wanted:
+                known = sorted(set(ds[coord].values.tolist()))
+                unknown = [w for w in wanted if w not in known]
+                if unknown:
+                    raise InputError(f"--{coord.removeprefix('psd_')}={unknown[0]!r}: not in this dataset "
+                                     f"(have {', '.join(known)})")
+                mask &= np.isin(ds[coord].values, wanted)
+        for value, keep in bounds:
+            if value is not None:
+                mask &= keep(ds["psd_delta"].values, value - 1e-12 if keep is np.greater_equal else value + 1e-12)
     if args.rate_min is not None:
         mask &= ds[rate].values >= args.rate_min
     if args.rate_max is not None:
         mask &= ds[rate].values <= args.rate_max
     sub = sub.isel({dim: np.flatnonzero(mask)})
     df = sub.to_dataframe().reset_index(drop=True)
-    coords = [c for c in sub.coords if c not in ("key",)]
+    coords = [c for c in sub.coords if c not in ("key",) and not c.startswith("psd")]  # the key names the psd
     if args.columns:
         wanted = [c.strip() for c in args.columns.split(",") if c.strip()]
         missing = [c for c in wanted if c not in df.columns]

@@ -1,8 +1,10 @@
-"""Poisson seeding: N uniform random centres in a periodic cube, with log-normal diameters.
+"""Poisson seeding: N uniform random centres in a periodic cube, with diameters from any size distribution.
 
-Diameters follow a log-normal law with mean 1 and relative standard deviation sigma (the paper's sigma, read as the
-std of D itself: s^2 = ln(1 + sigma^2), mu = -s^2/2). The paper could also be read with sigma = std(ln D); the two
-readings differ in relative std by at most 2.3 % for sigma <= 0.3. The drawn sample is rescaled to mean exactly 1.
+By default the diameters follow the paper's log-normal law with mean 1 and relative standard deviation sigma (read as
+the std of D itself: s^2 = ln(1 + sigma^2), mu = -s^2/2; the paper could also be read with sigma = std(ln D); the two
+readings differ in relative std by at most 2.3 % for sigma <= 0.3). Any other distribution is given by its spec
+(:mod:`spherejam.core.size_distribution`). The drawn sample is rescaled to mean exactly 1. The stream draws the
+diameters first, then the centres, for every family, so the log-normal packings are those of spherejam 0.1.
 """
 
 from __future__ import annotations
@@ -13,11 +15,10 @@ import numpy as np
 
 from .errors import require
 from .packing import Packing, ball_volume
+from .size_distribution import MAX_SIGMA, LogNormal, SizeDistribution, lognormal_spec, parse, sample_descriptors
 from .validation import N_MAX
 
-#: Upper bound of sigma we accept: beyond it log-normal size ratios grow so large that the
-#: cell-list cost bound (size ratio up to ~1:10 for N ~ 1e4) no longer holds.
-MAX_SIGMA = 1.0
+__all__ = ["MAX_SIGMA", "box_for", "lognormal_diameters", "poisson_packing", "rng_for"]
 
 
 def rng_for(seed: int) -> np.random.Generator:
@@ -30,11 +31,7 @@ def lognormal_diameters(n: int, sigma: float, rng: np.random.Generator) -> np.nd
     """``n`` log-normal diameters with sample mean exactly 1 and relative std ``sigma`` (0 = monodisperse)."""
     require(isinstance(n, (int, np.integer)) and n >= 1, "n", n, "must be an integer >= 1")
     require(math.isfinite(sigma) and 0 <= sigma <= MAX_SIGMA, "sigma", sigma, f"must be in [0, {MAX_SIGMA}]")
-    if sigma == 0:
-        return np.ones(n)
-    s2 = math.log1p(sigma * sigma)
-    d = rng.lognormal(mean=-s2 / 2, sigma=math.sqrt(s2), size=n)
-    return d / d.mean()
+    return LogNormal(lognormal_spec(sigma), float(sigma)).draw(n, rng)
 
 
 def box_for(diameters: np.ndarray, phi_nominal: float, dim: int = 3) -> float:
@@ -44,16 +41,19 @@ def box_for(diameters: np.ndarray, phi_nominal: float, dim: int = 3) -> float:
 
 
 def poisson_packing(
-    n: int, sigma: float = 0.0, seed: int = 0, phi_nominal: float = 0.6, dim: int = 3
+    n: int | None, sigma: float = 0.0, seed: int = 0, phi_nominal: float = 0.6, dim: int = 3,
+    psd: str | SizeDistribution | None = None,
 ) -> Packing:
-    """A Poisson packing: uniform centres, log-normal relative sizes, closest pair just touching.
+    """A Poisson packing: uniform centres, relative sizes from a size distribution, closest pair just touching.
 
     Parameters
     ----------
-    n : int
-        Number of spheres N >= 2.
+    n : int or None
+        Number of spheres N >= 2; None takes it from a ``list:`` distribution.
     sigma : float
-        Relative standard deviation of the diameters (dimensionless, 0 ... 1).
+        Relative standard deviation of log-normal diameters (dimensionless, 0 ... 1); ignored if ``psd`` is given.
+    psd : str or SizeDistribution, optional
+        The size distribution (a spec such as ``gaussian:delta=0.2``); default ``lognormal:sigma=<sigma>``.
     seed : int
         Seed of this packing's independent random stream; the same seed gives bitwise the same packing.
     phi_nominal : float
@@ -63,15 +63,29 @@ def poisson_packing(
     dim : int
         Dimension d (2 ... 5).
     """
+    if psd is None:
+        require(isinstance(sigma, (int, float, np.floating)) and math.isfinite(sigma) and 0 <= sigma <= MAX_SIGMA,
+                "sigma", sigma, f"must be in [0, {MAX_SIGMA}]")
+        psd = lognormal_spec(sigma)
+    distribution = parse(psd)
+    if n is None:
+        require(distribution.fixed_n is not None, "n", n, "must be given (only a list: distribution fixes N)")
+        n = distribution.fixed_n
     require(isinstance(n, (int, np.integer)) and 2 <= n <= N_MAX, "n", n, f"must be an integer in [2, {N_MAX}]")
     require(isinstance(dim, (int, np.integer)) and 2 <= dim <= 5, "dim", dim, "must be 2, 3, 4 or 5")
     rng = rng_for(seed)
-    nominal = lognormal_diameters(n, sigma, rng)
+    nominal = distribution.draw(n, rng)
     box = box_for(nominal, phi_nominal, dim)
     positions = rng.random((n, dim)) * box
+    parameters = {"n": int(n)}
+    if isinstance(distribution, LogNormal):
+        parameters["sigma"] = float(distribution.sigma)
+    parameters.update({"phi_nominal": float(phi_nominal), "dim": int(dim), "psd": distribution.spec})
     metadata = {
         "algorithm": "poisson",
         "seed": int(seed),
-        "parameters": {"n": int(n), "sigma": float(sigma), "phi_nominal": float(phi_nominal), "dim": int(dim)},
+        "parameters": parameters,
+        # the distribution and the drawn sample's own descriptors (delta, skewness, d_max/d_min, M1..M3, z)
+        "size_distribution": {**distribution.provenance(), "sample": sample_descriptors(nominal).as_dict()},
     }
     return Packing(positions, nominal, box, metadata).scaled_to_contact()

@@ -246,6 +246,8 @@ class FBRun(Stepper):
         metadata = {"algorithm": "fb", "parameters": self.parameters, "counters": stats.as_dict()}
         if "seed" in self.input.metadata:
             metadata["seed"] = self.input.metadata["seed"]
+        if "size_distribution" in self.input.metadata:  # the seed's distribution and sample descriptors
+            metadata["size_distribution"] = self.input.metadata["size_distribution"]
         result = Packing(self.positions, self.nominal * self.rho_in, self.box, metadata)
         result.validate(what="FB result")
         return result

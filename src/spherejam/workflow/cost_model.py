@@ -310,7 +310,7 @@ def load_configs(*paths) -> dict:
     """Config files merged as Snakemake merges several ``--configfile`` arguments: later files override earlier
     ones key by key, recursively into nested mappings. (The workflow no longer merges a ``--configfile`` over
     config/config.yaml: one file is the whole experiment.)"""
-    from ..core.validation import load_config_file
+    from .config import load_config_file
 
     config: dict = {}
     for path in paths:

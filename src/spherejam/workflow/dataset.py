@@ -2,9 +2,15 @@
 
 Two dimensions:
 
-* ``packing``: one entry per generated packing (protocol, sigma, gamma, replica), with its initial density phi,
+* ``packing``: one entry per generated packing (protocol, distribution, gamma, replica), with its initial density phi,
   closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
 * ``grid_run``: the parameter-validation grid (MLS with other parameter sets on selected LS packings).
+
+Each packing's size distribution is a set of coordinates: ``distribution`` (its key, ``sigma0.1`` or a config
+name), ``psd`` (the spec) and the population's descriptors ``psd_delta``, ``psd_skewness``, ``psd_size_ratio``,
+``psd_z``; ``sigma`` is the log-normal sigma of a ``sigmas`` run (NaN for a named distribution). The drawn sample's
+own descriptors are variables (``sample_delta``, ...). Datasets written before distributions existed get these
+coordinates on reading (:func:`open_dataset`), from their sigma.
 
 The config, its hash, package versions and git commit are stored as JSON-string attributes, so the file can be
 archived and browsed without the packing files (``spherejam browse``).
@@ -25,8 +31,8 @@ from ..core.atomic import atomic_output
 from ..core.errors import InputError, PackingFileError
 from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
-from ..core.validation import check_config
 from ..engines.result import RunStats, stats_from_metadata
+from .config import check_config
 from .experiment import Experiment, GridRun, Run, config_hash
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
@@ -50,10 +56,22 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "grid_stages": ("compression stages of the MLS run", "1"),
     "grid_wall_time": ("wall time of the MLS run", "s"),
     "grid_completed": ("1 if MLS stopped by its own rule, 0 if cut (collision or wall-time cap)", "1"),
+    "sample_delta": ("relative std of the packing's drawn diameters", "1"),
+    "sample_skewness": ("skewness of the packing's drawn diameters", "1"),
+    "sample_size_ratio": ("d_max/d_min of the packing's drawn diameters", "1"),
+    "sample_z": ("M2^2/(M1 M3) of the packing's drawn diameters", "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
-    "sigma": ("relative standard deviation of the log-normal diameters", "1"),
+    "sigma": ("relative standard deviation of the log-normal diameters (sigmas runs; NaN for a named distribution)",
+              "1"),
+    "distribution": ("size distribution: sigma<value> (the sigmas shorthand) or its name in the config", ""),
+    "psd": ("spec of the size distribution (docs/psd.md)", ""),
+    "psd_family": ("family of the size distribution", ""),
+    "psd_delta": ("relative std of the diameter distribution, std(D)/<D>", "1"),
+    "psd_skewness": ("skewness of the diameter distribution", "1"),
+    "psd_size_ratio": ("d_max/d_min of the diameter distribution (inf: unbounded)", "1"),
+    "psd_z": ("M2^2/(M1 M3) of the diameter distribution (1 for equal spheres)", "1"),
     "rate": ("compression rate gamma; LS: d rho/dt, diameters D_i0 (rho0 + gamma t) with m = kB = 1, T = 0.2; "
              "FB: dimensionless shrink of the outer diameter per iteration (a different quantity: compare rates "
              "within one protocol only)", "1"),
@@ -74,7 +92,7 @@ COORDS: dict[str, tuple[str, str]] = {
 def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
     """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
 
-    The config passes :func:`spherejam.core.validation.check_config` (every limit and consistency rule) and makes
+    The config passes :func:`spherejam.workflow.config.check_config` (every limit and consistency rule) and makes
     an :class:`Experiment` (the design's own checks) first."""
     check_config(config)
     Experiment(config)  # its constructor checks the design (the sigmas of the extra rates and of the grid)
@@ -121,7 +139,9 @@ def _stats(path: Path, a: dict[str, Any], algorithms: tuple[str, ...]) -> RunSta
 def _generation_scalars(path: Path) -> dict[str, float]:
     a = _attrs(path)
     c = _stats(path, a, ("ls", "fb"))
+    sample = (a["metadata"].get("size_distribution") or {}).get("sample") or {}
     return {
+        **{f"sample_{k}": _num(sample.get(k)) for k in ("delta", "skewness", "size_ratio", "z")},
         "phi": _num(a.get("phi")),
         "pressure": _num(a.get("reduced_pressure")),
         "generation_collisions": _num(c.collisions),
@@ -198,8 +218,9 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
-    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma, with the
-    small-argument power-law exponents fitted on the pooled samples."""
+    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma of the ``sigmas``
+    runs (named distributions are not pooled), with the small-argument power-law exponents fitted on the pooled
+    samples."""
     from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
@@ -306,6 +327,7 @@ def build_dataset(manifest_path: str | os.PathLike):
     coords = {
         "protocol": ("packing", np.array([r.protocol for r in runs], dtype=str)),
         "sigma": ("packing", np.array([r.sigma for r in runs])),
+        **distribution_coords(exp, [r.dist for r in runs]),
         "rate": ("packing", np.array([r.rate for r in runs])),
         "inverse_rate": ("packing", 1.0 / np.array([r.rate for r in runs])),
         "replica": ("packing", np.array([r.replica for r in runs], dtype=np.int64)),
@@ -327,7 +349,7 @@ def build_dataset(manifest_path: str | os.PathLike):
             initial_rate=("grid_run", np.array([g.initial_rate for g in grid_runs])),
             final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
         )
-    if exp.config.get("calippso", {}).get("enabled", True):
+    if exp.config.get("calippso", {}).get("enabled", True) and exp.sigmas:  # pooled per sigma of the sigmas runs
         dist = collect_distributions(exp)
         coords.update(dist.pop("_coords"))
         data_vars.update(dist)
@@ -349,6 +371,40 @@ def build_dataset(manifest_path: str | os.PathLike):
         history=f"{prov['created']}: built by spherejam dataset from {manifest_path.name}",
     )
     return ds
+
+
+def distribution_coords(exp: Experiment, keys: list[str]) -> dict[str, tuple]:
+    """The ``packing`` coordinates of the size distributions ``keys`` (one per packing)."""
+    info = {}
+    for d in exp.distributions:
+        model = d.model()
+        desc = model.descriptors()
+        info[d.key] = (d.spec, model.family, desc.delta, desc.skewness, desc.size_ratio, desc.z)
+    cols = list(zip(*[info[k] for k in keys])) if keys else [()] * 6
+    names = ("psd", "psd_family", "psd_delta", "psd_skewness", "psd_size_ratio", "psd_z")
+    out = {"distribution": ("packing", np.array(keys, dtype=str))}
+    for name, values in zip(names, cols):
+        out[name] = ("packing", np.array(values, dtype=str if name in ("psd", "psd_family") else float))
+    return out
+
+
+def with_distributions(ds):
+    """A dataset written before distributions existed, with their coordinates derived from its sigma."""
+    from ..core.size_distribution import lognormal_spec, parse
+
+    if "distribution" in ds.coords or "distribution" in ds.variables:
+        return ds
+    sigmas = ds["sigma"].values.astype(float)
+    desc = {s: parse(lognormal_spec(s)).descriptors() for s in set(sigmas.tolist())}
+    return ds.assign_coords(
+        distribution=("packing", np.array([f"sigma{float(s):g}" for s in sigmas], dtype=str)),
+        psd=("packing", np.array([lognormal_spec(s) for s in sigmas], dtype=str)),
+        psd_family=("packing", np.array(["lognormal"] * sigmas.size, dtype=str)),
+        psd_delta=("packing", np.array([desc[s].delta for s in sigmas])),
+        psd_skewness=("packing", np.array([desc[s].skewness for s in sigmas])),
+        psd_size_ratio=("packing", np.array([desc[s].size_ratio for s in sigmas])),
+        psd_z=("packing", np.array([desc[s].z for s in sigmas])),
+    )
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:
@@ -410,7 +466,7 @@ def open_dataset(path: str | os.PathLike):
     ds = ds.rename(renamed)
     for new in renamed.values():  # the old description is what made it look like a verdict
         ds[new].attrs["long_name"] = _structure_variables()[new][0]
-    return ds
+    return with_distributions(ds)
 
 
 def dataset_config(ds) -> dict[str, Any]:

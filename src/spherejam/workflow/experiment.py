@@ -5,13 +5,19 @@ which files belong to the experiment) use this module, so the two can never disa
 no path, seed or config-derived argument themselves. It has no Snakemake dependency; the rules hand their
 ``wildcards`` (any object with the wildcard names as attributes) to :meth:`Run.from_wildcards` and friends.
 
-A config (see ``config/schema.yaml``) names the spheres per packing, the polydispersities sigma, the LS and FB
+A config (see ``config/schema.yaml``) names the spheres per packing, the size distributions (``sigmas``, the
+paper's log-normals, and ``distributions``, any named spec of :mod:`spherejam.core.size_distribution`), the LS and FB
 compression-rate grids gamma, the number of replicas, the MLS parameters, and the parameter-validation grid.
+
+The experiment's axis is the **distribution** (:class:`Distribution`), keyed in paths, seeds and the dataset by its
+key: ``sigma0.1`` for an entry of ``sigmas`` (the paths and seeds of spherejam 0.1, unchanged) or the name given
+in ``distributions`` (``powder``).
 
 Files below the results folder ``<results>``:
 
 * ``packings/<run key>/{poisson,initial,jammed}.h5``, ``structure.json``, ``calippso.json``, ``calippso.h5``: one
-  packing's stages (:data:`PACKING_FILES`), run key ``ls/sigma0.1/rate0.5/r0`` (:data:`RUN_KEY`);
+  packing's stages (:data:`PACKING_FILES`), run key ``ls/sigma0.1/rate0.5/r0`` or ``fb/powder/rate0.01/r2``
+  (:data:`RUN_KEY`);
 * ``validation/<grid key>.h5``: the MLS output of one validation-grid run (:data:`GRID_KEY`);
 * ``logs/``, ``benchmarks/``, ``checkpoints/``: per job, in the folder of its kind (:data:`JOB_FOLDERS`);
 * ``experiment.json``, ``dataset.nc``, ``tables/``, ``figures/``: the experiment as a whole.
@@ -22,6 +28,8 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,14 +40,19 @@ from ..core.errors import InputError
 PROTOCOLS = ("ls", "fb")
 
 #: Key of one generated packing, the folder of its files below ``packings/``; braces are the wildcards of the rules.
-RUN_KEY = "{protocol}/sigma{sigma}/rate{rate}/r{replica}"
+#: ``dist`` is the distribution's key (``sigma0.1``, or a name of ``distributions``).
+RUN_KEY = "{protocol}/{dist}/rate{rate}/r{replica}"
 #: Key of one validation-grid run: the LS packing it re-jams, then its MLS ladder (decrease factor f, initial and
 #: final rate).
 GRID_KEY = RUN_KEY + "/f{factor}_g{g0}_gf{gf}"
 _NUMBER = r"[0-9][0-9.e+-]*"
+#: A name in ``distributions``: a letter, then letters, digits, ``_`` or ``-`` (it is a folder name and a wildcard).
+NAME_PATTERN = r"[A-Za-z][A-Za-z0-9_-]*"
+_SHORTHAND = re.compile(r"sigma([0-9][0-9.e+-]*)")
 #: What each wildcard of the keys may match (the workflow's global ``wildcard_constraints``).
-WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "sigma": _NUMBER, "rate": _NUMBER, "replica": r"\d+",
-                        "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
+#: ``dist`` is a name or ``sigma`` followed by a number (``sigma0.1``, ``sigma1e-05``).
+WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za-z0-9_.+-]*",
+                        "rate": _NUMBER, "replica": r"\d+", "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
 
 #: The files of one packing below ``packings/<run key>/``, by stage: the Poisson start, the LS or FB output, the MLS
 #: output, its structure analysis, CALiPPSO's summary and CALiPPSO's packing (with its contacts and forces).
@@ -112,30 +125,103 @@ def check_grid_rates(grid_rates: list[float], ls_rates: list[float]) -> None:
             )
 
 
+def shorthand_key(sigma: float) -> str:
+    """The key of the ``sigmas`` entry sigma (``sigma0.1``): the folder of its packings since spherejam 0.1."""
+    return f"sigma{fmt(sigma)}"
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """One value of the experiment's axis: a size distribution with its key and spec.
+
+    ``sigma`` is set for the ``sigmas`` shorthand (a log-normal with the paper's sigma), None for a named entry of
+    ``distributions``. ``files`` are the PSD files its spec reads (inputs of the seeding jobs)."""
+
+    key: str
+    spec: str
+    sigma: float | None = None
+
+    @property
+    def files(self) -> list[str]:
+        family, _, rest = self.spec.partition(":")
+        return [rest.strip()] if family.strip().lower() in ("table", "list") else []
+
+    def model(self):
+        """The :class:`~spherejam.core.size_distribution.SizeDistribution` (reads a table or list file)."""
+        from ..core.size_distribution import parse
+
+        return parse(self.spec, f"distributions.{self.key}" if self.sigma is None else f"sigmas[{fmt(self.sigma)}]")
+
+    @property
+    def paper_sigma(self) -> float:
+        """The paper's sigma if this is one of its log-normals (shorthand, or a named ``lognormal:`` spec), else NaN:
+        where the paper's values apply."""
+        if self.sigma is not None:
+            return float(self.sigma)
+        family, _, rest = self.spec.partition(":")
+        if family.strip().lower() == "lognormal":
+            return float(self.model().sigma)
+        return math.nan
+
+
+def distributions_of(config: dict[str, Any]) -> list[Distribution]:
+    """The experiment's distributions in order: ``sigmas`` (ascending, as given), then ``distributions`` (as
+    given). Raises :class:`InputError` for a bad name or a name that shadows a ``sigma<number>`` key."""
+    from ..core.size_distribution import lognormal_spec
+
+    out = [Distribution(shorthand_key(s), lognormal_spec(s), float(s)) for s in config.get("sigmas") or []]
+    named = config.get("distributions") or {}
+    if not isinstance(named, dict):
+        raise InputError(f"distributions={named!r}: must be a mapping of names to specs")
+    for name, spec in named.items():
+        if not isinstance(name, str) or not re.fullmatch(NAME_PATTERN, name) or _SHORTHAND.fullmatch(name):
+            raise InputError(f"distributions.{name}: a name is a letter then letters, digits, _ or - (and not "
+                             "sigma<number>, the key of the sigmas shorthand)")
+        if not isinstance(spec, str):
+            raise InputError(f"distributions.{name}={spec!r}: must be a spec string such as 'gaussian:delta=0.2'")
+        out.append(Distribution(name, spec.strip()))
+    return out
+
+
 def config_hash(config: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 @dataclass(frozen=True)
 class Run:
-    """One generated packing: protocol (``ls``/``fb``), sigma, compression rate gamma and replica index."""
+    """One generated packing: protocol (``ls``/``fb``), distribution key ``dist`` (``sigma0.1`` or a name; a number
+    is read as the sigma of the ``sigmas`` shorthand), compression rate gamma and replica index."""
 
     protocol: str
-    sigma: float
+    dist: str
     rate: float
     replica: int
 
+    def __post_init__(self):
+        if not isinstance(self.dist, str):
+            object.__setattr__(self, "dist", shorthand_key(float(self.dist)))
+
     @classmethod
     def from_wildcards(cls, wildcards) -> Run:
-        """The run of a job from its wildcards ``protocol``, ``sigma``, ``rate`` and ``replica`` (path text)."""
-        return cls(wildcards.protocol, float(wildcards.sigma), float(wildcards.rate), int(wildcards.replica))
+        """The run of a job from its wildcards ``protocol``, ``dist``, ``rate`` and ``replica`` (path text)."""
+        return cls(wildcards.protocol, str(wildcards.dist), float(wildcards.rate), int(wildcards.replica))
+
+    @property
+    def sigma(self) -> float:
+        """The sigma of a ``sigmas`` shorthand run, NaN for a named distribution."""
+        m = _SHORTHAND.fullmatch(self.dist)
+        return float(m.group(1)) if m else math.nan
 
     @property
     def key(self) -> str:
-        return RUN_KEY.format(protocol=self.protocol, sigma=fmt(self.sigma), rate=fmt(self.rate), replica=self.replica)
+        return RUN_KEY.format(protocol=self.protocol, dist=self.dist, rate=fmt(self.rate), replica=self.replica)
 
     def seed(self, master: int, purpose: str = "poisson") -> int:
-        return derive_seed(master, self.protocol, float(self.sigma), float(self.rate), self.replica, purpose)
+        """The seed for ``purpose``; a ``sigmas`` run's label is its sigma (the seeds of spherejam 0.1), a named
+        distribution's is ``psd:<name>``."""
+        m = _SHORTHAND.fullmatch(self.dist)
+        label = float(m.group(1)) if m else f"psd:{self.dist}"
+        return derive_seed(master, self.protocol, label, float(self.rate), self.replica, purpose)
 
 
 @dataclass(frozen=True)
@@ -155,7 +241,7 @@ class GridRun:
 
     @property
     def key(self) -> str:
-        return GRID_KEY.format(protocol=self.source.protocol, sigma=fmt(self.source.sigma), rate=fmt(self.source.rate),
+        return GRID_KEY.format(protocol=self.source.protocol, dist=self.source.dist, rate=fmt(self.source.rate),
                                replica=self.source.replica, factor=fmt(self.decrease_factor),
                                g0=fmt(self.initial_rate), gf=fmt(self.final_rate))
 
@@ -248,7 +334,8 @@ class Experiment:
             self.results = Path(results)
             self.n = int(config["n"])
             self.master_seed = int(config["seed"])
-            self.sigmas = [float(s) for s in config["sigmas"]]
+            self.sigmas = [float(s) for s in config.get("sigmas") or []]
+            self.distributions = distributions_of(config)
             self.replicas = int(config.get("replicas", 1))
             self.rates = {p: rate_grid(config[p]["rates"]) for p in PROTOCOLS}
             # extra rates for some sigmas only (e.g. the slow series of Table 2, which sigma = 0 does not use)
@@ -259,6 +346,17 @@ class Experiment:
             grid = config.get("validation_grid", {})
         except (KeyError, TypeError, ValueError) as exc:
             raise InputError(f"config: missing or malformed key {exc}") from None
+        if not self.distributions:
+            raise InputError("sigmas: give sigmas or distributions (at least one size distribution)")
+        keys = [d.key for d in self.distributions]
+        if len(set(keys)) != len(keys):
+            raise InputError(f"distributions: a key appears twice ({', '.join(keys)})")
+        for d in self.distributions:
+            if d.sigma is None:  # a named spec: parsed (and its file read) now, so a bad one fails before any job
+                fixed = d.model().fixed_n
+                if fixed is not None and fixed != self.n:
+                    raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = {self.n}: "
+                                     "set n to the list's length")
         self.paths = Paths(self.results)
         check_distinct_paths(self.sigmas, "sigmas")
         for p in PROTOCOLS:
@@ -281,12 +379,21 @@ class Experiment:
                     raise InputError(f"validation_grid.sigmas={fmt(sigma)}: not one of sigmas")
                 check_grid_rates(rate_grid(grid.get("ls_rates", [])), self.rates_for("ls", float(sigma)))
 
-    def rates_for(self, protocol: str, sigma: float) -> list[float]:
-        """Compression rates gamma of one protocol at one sigma: ``rates`` plus the ``extra_rates`` of that sigma,
-        in the order given, without repeats (same digits as the file paths)."""
+    def distribution(self, key: str) -> Distribution:
+        """The distribution of a key (``sigma0.1`` or a name)."""
+        for d in self.distributions:
+            if d.key == key:
+                return d
+        raise InputError(f"distribution={key!r}: not one of {', '.join(d.key for d in self.distributions)}")
+
+    def rates_for(self, protocol: str, sigma: float | str) -> list[float]:
+        """Compression rates gamma of one protocol at one distribution (a sigma of ``sigmas`` or a key):
+        ``rates`` plus the ``extra_rates`` of that sigma, in the order given, without repeats (same digits as the
+        file paths). Extra rates are given for sigmas of the shorthand only."""
         rates = list(self.rates[protocol])
+        key = sigma if isinstance(sigma, str) else shorthand_key(sigma)
         for sigmas, extra in self.extra_rates[protocol]:
-            if any(fmt(sigma) == fmt(s) for s in sigmas):
+            if any(key == shorthand_key(s) for s in sigmas):
                 rates += extra
         unique: dict[str, float] = {}
         for r in rates:
@@ -297,18 +404,38 @@ class Experiment:
     def runs(self, protocol: str | None = None) -> list[Run]:
         protocols = PROTOCOLS if protocol is None else (protocol,)
         return [
-            Run(p, s, r, k)
+            Run(p, d.key, r, k)
             for p in protocols
-            for s in self.sigmas
-            for r in self.rates_for(p, s)
+            for d in self.distributions
+            for r in self.rates_for(p, d.key)
             for k in range(self.replicas)
         ]
 
     def figure1_run(self) -> Run:
-        """The run whose closest jammed configuration Fig. 1 shows: the largest sigma, generated (as in the paper)
-        by the force-biased algorithm (LS if there are no FB runs) at its fastest rate, replica 0."""
+        """The run whose closest jammed configuration Fig. 1 shows: the largest sigma (of the ``sigmas``; else the
+        first distribution), generated (as in the paper) by the force-biased algorithm (LS if there are no FB runs)
+        at its fastest rate, replica 0."""
         runs = [r for r in self.runs("fb") if r.replica == 0] or [r for r in self.runs("ls") if r.replica == 0]
-        return max(runs, key=lambda r: (r.sigma, r.rate))
+        order = {d.key: i for i, d in enumerate(self.distributions)}
+        return max(runs, key=lambda r: (r.sigma if r.sigma == r.sigma else -1.0, -order[r.dist], r.rate))
+
+    def psd_inputs(self) -> list[str]:
+        """Every PSD file of the experiment's distributions (inputs of the dataset, table and figure jobs too)."""
+        return sorted({f for d in self.distributions for f in d.files})
+
+    def figure1_options(self) -> str:
+        """The ``spherejam render`` label flag of Fig. 1: ``--sigma S`` for a ``sigmas`` run (else the sample's)."""
+        sigma = self.figure1_run().sigma
+        return f"--sigma {fmt(sigma)}" if math.isfinite(sigma) else ""
+
+    def psd(self, wildcards) -> str:
+        """The ``--psd`` spec of a seeding job, from its wildcards."""
+        return self.distribution(str(wildcards.dist)).spec
+
+    def psd_files(self, wildcards) -> list[str]:
+        """The PSD files a seeding job reads (``table:``/``list:``), from its wildcards: inputs of the job, so that
+        editing the file reruns what depends on it."""
+        return self.distribution(str(wildcards.dist)).files
 
     def grid_runs(self) -> list[GridRun]:
         if not self.grid_enabled:

@@ -38,7 +38,8 @@ def _plt():
 
 
 def _sigmas(ds):
-    return sorted(set(ds.sigma.values.tolist()))
+    """The sigmas of the ``sigmas`` runs (named distributions have sigma NaN: they are in Fig. 5 and the tables)."""
+    return sorted({s for s in ds.sigma.values.tolist() if math.isfinite(s)})
 
 
 def _colours(sigmas):
@@ -229,23 +230,59 @@ def farr_groot_sigmas(ds) -> np.ndarray:
     return np.array(sorted({round(float(s), 12) for s in (*TABLE34_SIGMAS, *_sigmas(ds))}))
 
 
+#: Fig. 5's marker of each size-distribution family (colour tells the quantity).
+FAMILY_MARKERS = {"lognormal": "o", "gaussian": "s", "uniform": "D", "bidisperse": "^", "powerlaw": "v",
+                  "table": "*", "list": "P"}
+
+
+def _table4_distributions(t4):
+    """(delta, family) of each Table 4 row: sigma itself for a sigmas-only table (the paper's log-normals)."""
+    from ..core.size_distribution import parse
+
+    if "psd" not in t4.columns:
+        return np.asarray(t4.sigma, dtype=float), ["lognormal"] * len(t4)
+    dists = [parse(spec) for spec in t4.psd]
+    delta = [float(r.sigma) if math.isfinite(r.sigma) else d.descriptors().delta
+             for d, (_, r) in zip(dists, t4.iterrows())]
+    return np.array(delta), [d.family for d in dists]
+
+
 def fig5(ds):
-    """phi_LT, phi_RCP and phi_GCP vs sigma (Table 4) with the Farr-Groot phi_RCP and the paper's Table 4."""
+    """phi_LT, phi_RCP and phi_GCP vs the relative std delta of the diameters (Table 4; sigma for the paper's
+    log-normals), one marker per distribution family, with the published models of phi_RCP (log-normal curves;
+    one mark per other distribution) and the paper's Table 4."""
+    from ..analysis.psd_models import PHI_RCP_MONO_PAPER, desmond_weeks, santos
     from .paper_reference import table4 as paper_table4
 
     plt = _plt()
     t4 = compute_tables(ds)["table4"]
     paper = paper_table4()
-    fig, ax = plt.subplots(figsize=(6.5, 6.0))
+    fig, ax = plt.subplots(figsize=(6.5, 6.4))
     fg_sigmas = farr_groot_sigmas(ds)
     ax.plot(fg_sigmas, [_farr_groot(float(s)) for s in fg_sigmas], "s", color="tab:blue", mfc="none", ms=7,
-            label="φ$_{RCP}$, Farr–Groot (our reconstruction)", gid="farr_groot")
-    styles = (("phi_LT", "o", "tab:red", "φ$_{LT}$"), ("phi_RCP", "+", "m", "φ$_{RCP}$"),
-              ("phi_GCP", "x", "c", "φ$_{GCP}$"))
-    for col, marker, colour, name in styles:
-        ax.plot(t4.sigma, t4[col], marker, color=colour, ms=9, mew=1.6, mfc="none", ls="none",
-                label=f"{name}, this run", gid=f"run_{col}")
-    for col, marker, colour, name in styles:
+            label="φ$_{RCP}$ models (log-normal): Farr–Groot, our reconstruction", gid="farr_groot")
+    grid = np.linspace(0, max(0.3, float(np.nanmax(fg_sigmas))), 61)
+    phi_mono = float(t4.santos_phi_mono.iloc[0]) if len(t4) and "santos_phi_mono" in t4 else PHI_RCP_MONO_PAPER
+    ax.plot(grid, [desmond_weeks(x, 3 * x + x**3) for x in grid], "--", color="tab:green", lw=1,
+            label="Desmond–Weeks 2014", gid="desmond_weeks")
+    ax.plot(grid, [santos(1 / (1 + x * x), phi_mono) for x in grid], ":", color="tab:olive", lw=1.3,
+            label=f"Santos et al. 2014 (φ$_{{mono}}$ = {phi_mono:.4f})", gid="santos")
+    delta, families = _table4_distributions(t4)
+    other = [i for i, f in enumerate(families) if f != "lognormal"]
+    for m, colour, name in (("farr_groot", "tab:blue", "Farr–Groot"), ("desmond_weeks", "tab:green", "Desmond–Weeks"),
+                            ("santos", "tab:olive", "Santos et al.")):
+        if other and f"model_{m}" in t4:
+            ax.plot(delta[other], t4[f"model_{m}"].values[other], "_", color=colour, ms=12, mew=2, ls="none",
+                    gid=f"model_{m}_marks", label=f"{name} at each other distribution")
+    styles = (("phi_LT", "tab:red", "φ$_{LT}$"), ("phi_RCP", "m", "φ$_{RCP}$"), ("phi_GCP", "c", "φ$_{GCP}$"))
+    for col, colour, name in styles:
+        for family in dict.fromkeys(families):
+            rows = [i for i, f in enumerate(families) if f == family]
+            ax.plot(delta[rows], t4[col].values[rows], FAMILY_MARKERS.get(family, "o"), color=colour, ms=8, mew=1.6,
+                    mfc="none", ls="none", label=f"{name}, this run ({family})",
+                    gid=f"run_{col}" if family == "lognormal" else f"run_{col}_{family}")
+    for col, colour, name in styles:
+        marker = "x"
         printed = paper[col].notna() & ~paper[f"{col}_derived"]
         derived = paper[col].notna() & paper[f"{col}_derived"]
         ax.plot(paper.index[printed], paper[col][printed], marker, color=colour, ms=5, alpha=0.45, mew=1,
@@ -254,7 +291,7 @@ def fig5(ds):
             ax.plot(paper.index[derived], paper[col][derived], marker, color=colour, ms=5, alpha=0.45, mew=1,
                     mfc="none", ls="none", label=f"{name}, paper: mean of its Table 2", gid=f"paper_{col}_derived",
                     markeredgecolor="0.5")
-    ax.set_xlabel("standard deviation σ of the log-normal diameter distribution")
+    ax.set_xlabel("relative standard deviation δ of the diameters (σ of the paper's log-normals)")
     ax.set_ylabel("packing density")
     ax.legend(fontsize=7, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.13))  # below: no data hidden
     ax.grid(alpha=0.3)
@@ -444,9 +481,20 @@ FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
            "structure": structure, "forces": forces}
 
 
+#: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5 and the tables).
+PER_SIGMA = ("fig2", "fig4", "fig6", "fig7", "forces")
+
+
 def draw(name: str, ds):
     if name not in FIGURES:
         raise InputError(f"figure={name!r}: must be one of {', '.join(FIGURES)}")
+    if name in PER_SIGMA and not _sigmas(ds):
+        plt = _plt()
+        fig, ax = plt.subplots(figsize=(6.5, 3))
+        _no_data(ax, f"{name} is drawn per σ of the log-normal sigmas runs; this experiment has none.\n"
+                     "Its named distributions are in Fig. 5 and Tables 3-4.")
+        ax.set_axis_off()
+        return fig
     return FIGURES[name](ds)
 
 

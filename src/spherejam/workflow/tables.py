@@ -8,7 +8,14 @@
   (:mod:`spherejam.workflow.bands`). ``bands.method`` chooses which edge Tables 3-4 report; a band of fewer than
   ``bands.min_packings`` packings is not estimable.
 * Table 4: phi_LT = mean of the LS and FB low edges, phi_RCP = mean of the high edges, phi_GCP = mean of the Table 2
-  entries (for sigma = 0 the conventional value 0.65, as in the paper).
+  entries (for sigma = 0 the conventional value 0.65, as in the paper), and beside phi_RCP the three published
+  models of :mod:`spherejam.analysis.psd_models` (Farr-Groot, Desmond-Weeks, Santos et al.) with ours - model.
+
+Rows are per size distribution (the dataset's ``distribution``): the ``sigmas`` in ascending order, then the named
+distributions by delta. A dataset with named distributions gets a ``distribution`` column (its key); one with
+``sigmas`` only has the columns of spherejam 0.1. The paper's values appear where the paper has that distribution
+(a log-normal with one of its sigmas); a monodisperse distribution (delta = 0) is not fitted in Table 2 and takes the
+conventional phi_GCP.
 
 Every row whose phi_GCP lies below the run's own phi_RCP (Table 4, and the Table 2 cells) is flagged
 (``gcp_below_rcp``): with enough data phi_GCP - phi_RCP ~ 0.01, so it signals too little data, not a result.
@@ -30,7 +37,7 @@ from ..core.atomic import atomic_folder
 from ..core.errors import InputError
 from . import paper_reference
 from .bands import BAND_DEFAULTS, band_edges
-from .dataset import dataset_config
+from .dataset import dataset_config, with_distributions
 from .fits import N_COEFFICIENTS, fit_gcp
 
 #: Table 2 rows: (label, protocol, variable, config key of the number of slowest points).
@@ -51,7 +58,8 @@ GCP_MONODISPERSE = 0.65
 
 
 def _frame(ds) -> pd.DataFrame:
-    cols = ["protocol", "sigma", "rate", "inverse_rate", "replica"]
+    ds = with_distributions(ds)
+    cols = ["protocol", "sigma", "rate", "inverse_rate", "replica", "distribution", "psd", "psd_delta"]
     df = pd.DataFrame({c: ds[c].values for c in cols})
     for name in ("phi", "phi_J"):
         df[name] = ds[name].values if name in ds else np.nan
@@ -73,6 +81,37 @@ def fit_settings(ds) -> dict:
 
 def band_settings(ds) -> dict:
     return {**BAND_DEFAULTS, **dataset_config(ds).get("bands", {})}
+
+
+def _groups(df: pd.DataFrame) -> list[dict]:
+    """The table rows' distributions in order (``sigmas`` ascending, then named ones as they come), each with its
+    key, sigma (NaN if named), the paper's sigma (NaN where the paper has no such distribution) and delta."""
+    from ..core.size_distribution import parse
+
+    groups = {}
+    for key, sigma, spec, delta in zip(df.distribution, df.sigma, df.psd, df.psd_delta):
+        if key in groups:
+            continue
+        paper_sigma = float(sigma)
+        if not math.isfinite(paper_sigma) and str(spec).startswith("lognormal:"):
+            paper_sigma = float(parse(spec).sigma)
+        groups[key] = {"distribution": key, "sigma": float(sigma), "paper_sigma": paper_sigma,
+                       "delta": float(delta), "psd": str(spec)}
+    # sigmas by sigma, then named ones by delta and name (the manifest stores the config with sorted keys, so the
+    # config's own order is not known here)
+    return sorted(groups.values(), key=lambda g: (not math.isfinite(g["sigma"]),
+                                                 g["sigma"] if math.isfinite(g["sigma"]) else g["delta"],
+                                                 g["distribution"]))
+
+
+def _has_named(df: pd.DataFrame) -> bool:
+    return not bool(np.all(np.isfinite(df.sigma.values.astype(float))))
+
+
+def _start(group: dict, named: bool) -> dict:
+    """The first cells of a row: ``sigma`` (and with named distributions, ``distribution`` and ``psd`` first)."""
+    return {"distribution": group["distribution"], "psd": group["psd"], "sigma": group["sigma"]} if named else {
+        "sigma": group["sigma"]}
 
 
 def not_estimable(n: int, why: str = "") -> str:
@@ -101,13 +140,14 @@ def table2(ds) -> pd.DataFrame:
     max_half = cfg.get("max_half_width")
     paper = paper_reference.table2()
     df = _frame(ds)
+    named = _has_named(df)
     rows = []
     for label, protocol, var, key in TABLE2_ROWS:
-        for sigma in sorted(df.sigma.unique()):
-            if sigma == 0:
+        for group in _groups(df):
+            if group["delta"] == 0:
                 continue  # the paper does not fit sigma = 0 (crystallisation); Table 4 takes 0.65
-            sub = df[(df.protocol == protocol) & (df.sigma == sigma)]
-            row = {"curve": label, "protocol": protocol, "variable": var, "sigma": sigma,
+            sub = df[(df.protocol == protocol) & (df.distribution == group["distribution"])]
+            row = {"curve": label, "protocol": protocol, "variable": var, **_start(group, named),
                    "phi_gcp": math.nan, "half_width": math.nan, "status": ""}
             n_avail = int(np.isfinite(sub[var]).sum())
             try:
@@ -128,7 +168,7 @@ def table2(ds) -> pd.DataFrame:
                     row["status"] = not_estimable(fit.n_points, f"half-width {fit.half_width:.2g} > {max_half:g}")
                 else:
                     row.update(phi_gcp=fit.phi_gcp, half_width=fit.half_width)
-            ref = _paper_row(paper, sigma, method=label)
+            ref = _paper_row(paper, group["paper_sigma"], method=label)
             row["paper_phi_gcp"] = float(ref.phi_GCP) if ref is not None else math.nan
             row["paper_half_width"] = float(ref.ci_half_width) if ref is not None else math.nan
             row["minus_paper"], row["minus_paper_in_half_widths"] = _compare(
@@ -148,12 +188,15 @@ def table3(ds) -> pd.DataFrame:
     paper = paper_reference.table3()
     paper_min = paper_reference.table3_min_unattributed()
     df = _frame(ds)
+    named = _has_named(df)
     rows = []
-    for sigma in sorted(df.sigma.unique()):
-        row = {"sigma": sigma}
+    for group in _groups(df):
+        row = _start(group, named)
+        sigma = group["paper_sigma"]
         for protocol in ("ls", "fb"):
             limit = cfg[f"{protocol}_max_inverse_rate"]
-            fast = df[(df.protocol == protocol) & (df.sigma == sigma) & (df.inverse_rate < limit)].phi_J.dropna()
+            fast = df[(df.protocol == protocol) & (df.distribution == group["distribution"])
+                      & (df.inverse_rate < limit)].phi_J.dropna()
             e = band_edges(fast.values, alpha, conf)
             p = f"{protocol}_"
             row[p + "n_fast"] = e.n
@@ -197,22 +240,27 @@ def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -
     t3 = table3(ds) if t3 is None else t3
     gcp0 = float(dataset_config(ds).get("gcp_monodisperse", GCP_MONODISPERSE))
     paper = paper_reference.table4()
+    df = _frame(ds)
+    named = _has_named(df)
+    groups = {g["distribution"]: g for g in _groups(df)}
     rows = []
     for _, r in t3.iterrows():
-        sigma = r.sigma
-        row = {"sigma": sigma}
+        group = groups[r.distribution] if named else next(g for g in groups.values() if g["sigma"] == r.sigma)
+        sigma, mono = group["paper_sigma"], group["delta"] == 0
+        row = _start(group, named)
         for col, side in (("phi_LT", "low"), ("phi_RCP", "high")):
             row[col], row[f"{col}_half_width"], _ = _mean_with_half_width(
                 [(r[f"ls_phi_{side}"], r[f"ls_phi_{side}_half_width"]),
                  (r[f"fb_phi_{side}"], r[f"fb_phi_{side}_half_width"])])
-        if sigma == 0:
+        if mono:
             row["phi_GCP"], row["phi_GCP_half_width"], n_fits = gcp0, math.nan, 0
         else:
-            cells = t2[np.isclose(t2.sigma, sigma)] if len(t2) else t2
+            key = "distribution" if named else "sigma"
+            cells = t2[t2[key] == row[key]] if len(t2) else t2
             row["phi_GCP"], row["phi_GCP_half_width"], n_fits = _mean_with_half_width(
                 zip(cells.phi_gcp, cells.half_width)) if len(cells) else (math.nan, math.nan, 0)
         row["gcp_fits_averaged"] = n_fits
-        row["gcp_below_rcp"] = bool(sigma != 0 and row["phi_GCP"] < row["phi_RCP"])
+        row["gcp_below_rcp"] = bool(not mono and row["phi_GCP"] < row["phi_RCP"])
         match = paper.index[np.isclose(paper.index.values, sigma)]
         for col in ("phi_LT", "phi_RCP", "phi_GCP"):
             ref = paper.loc[match[0]] if len(match) else None
@@ -220,15 +268,49 @@ def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -
             row[f"{col}_paper_derived"] = bool(ref[f"{col}_derived"]) if ref is not None else False
             row[f"{col}_minus_paper"], row[f"{col}_minus_paper_in_half_widths"] = _compare(
                 row[col], row[f"{col}_half_width"], row[f"{col}_paper"])
+        row["_psd"] = group["psd"]
         rows.append(row)
-    return pd.DataFrame(rows)
+    return _with_models(pd.DataFrame(rows))
+
+
+#: Table 4's model columns: model name -> column prefix.
+MODELS = {"farr_groot": "Farr–Groot", "desmond_weeks": "Desmond–Weeks", "santos": "Santos et al."}
+
+
+def _with_models(t4: pd.DataFrame) -> pd.DataFrame:
+    """Table 4 with the published phi_RCP models beside ours (``model_<name>``, ``phi_RCP_minus_<name>``).
+    Santos et al.'s one input, the monodisperse phi_RCP, is ours where a delta = 0 row has one, else the paper's."""
+    from ..analysis.psd_models import PHI_RCP_MONO_PAPER, predictions
+
+    if t4.empty:
+        return t4
+    mono = [v for v, spec in zip(t4.phi_RCP, t4._psd) if math.isfinite(v) and _is_mono(spec)]
+    phi_mono = mono[0] if mono else PHI_RCP_MONO_PAPER
+    cols = {f"model_{m}": [] for m in MODELS}
+    for spec in t4._psd:
+        for p in predictions(spec, phi_mono):
+            cols[f"model_{p.model}"].append(p.phi)
+    out = t4.drop(columns="_psd")
+    for m in MODELS:
+        out[f"model_{m}"] = cols[f"model_{m}"]
+        out[f"phi_RCP_minus_{m}"] = out.phi_RCP - out[f"model_{m}"]
+    out["santos_phi_mono"] = phi_mono
+    out.attrs["santos_input"] = "ours (delta = 0 row)" if mono else "the paper's 0.6405 (no monodisperse row of ours)"
+    return out
+
+
+def _is_mono(spec: str) -> bool:
+    from ..core.size_distribution import parse
+
+    return parse(spec).descriptors().delta == 0
 
 
 def _flag_table2(t2: pd.DataFrame, t4: pd.DataFrame) -> pd.DataFrame:
     """Table 2 cells whose phi_GCP lies below the run's phi_RCP of the same sigma."""
     t2 = t2.copy()
-    rcp = {float(s): v for s, v in zip(t4.sigma, t4.phi_RCP)}
-    t2["gcp_below_rcp"] = [bool(g < rcp.get(float(s), math.nan)) for s, g in zip(t2.sigma, t2.phi_gcp)]
+    key = "distribution" if "distribution" in t4 else "sigma"
+    rcp = dict(zip(t4[key], t4.phi_RCP))
+    t2["gcp_below_rcp"] = [bool(g < rcp.get(s, math.nan)) for s, g in zip(t2[key], t2.phi_gcp)] if len(t2) else []
     return t2
 
 
@@ -259,13 +341,19 @@ GCP_BELOW_RCP = "φ_GCP < φ_RCP: too little data"
 PAPER_MIN_NOTE = "paper: the surviving φ_min^fast row of Table 3 (LS or FB, not known which)"
 
 
+def _label(r) -> str:
+    """A row's distribution as the tables show it: sigma for a sigmas-only experiment, else the key."""
+    return str(r.distribution) if "distribution" in r.index else f"{r.sigma:g}"
+
+
 def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
     """The human-readable layout of a table, with the paper's value, ours − paper and that in half-widths."""
+    idx = "distribution" if "distribution" in t.columns else "σ"
     if name == "table2":
         rows = []
         for _, r in t.iterrows():
             rows.append({
-                "σ": f"{r.sigma:g}", "method": r.curve,
+                idx: _label(r), "method": r.curve,
                 "φ_GCP (ours)": r.status if r.status else _pm(r.phi_gcp, r.half_width),
                 "n": int(r.n_points),
                 "paper": _pm(r.paper_phi_gcp, r.paper_half_width),
@@ -273,7 +361,7 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
                 "(ours − paper) / half-width": _ratio(r.minus_paper_in_half_widths),
                 "flag": GCP_BELOW_RCP if r.get("gcp_below_rcp", False) else "",
             })
-        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
+        return pd.DataFrame(rows).set_index(idx) if rows else pd.DataFrame()
     if name == "table3":
         method = method or t.attrs.get("method", BAND_DEFAULTS["method"])
         rows = []
@@ -284,7 +372,7 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
                                  r[f"{p}_phi_{side}_ci_high"])
                     ours = r[f"{p}_status"] or _pm(r[f"{p}_phi_{side}"], r[f"{p}_phi_{side}_half_width"])
                     rows.append({
-                        "σ": f"{r.sigma:g}", "protocol": p.upper(), "edge": edge, "n": int(r[f"{p}_n_fast"]),
+                        idx: _label(r), "protocol": p.upper(), "edge": edge, "n": int(r[f"{p}_n_fast"]),
                         f"ours ({METHOD_LABELS.get(method, method)})": ours,
                         "sample min/max": _fmt(r[f"{p}_phi_{'min' if side == 'low' else 'max'}_fast"]),
                         "α-quantile [95 % CI]": f"{_fmt(q)} [{_fmt(lo)}, {_fmt(hi)}]",
@@ -292,28 +380,32 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
                         "ours − paper": _signed(r[f"{p}_phi_{side}_minus_paper"]),
                         "(ours − paper) / half-width": _ratio(r[f"{p}_phi_{side}_minus_paper_in_half_widths"]),
                     })
-        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
+        return pd.DataFrame(rows).set_index(idx) if rows else pd.DataFrame()
     if name == "table4":
         rows = []
         for _, r in t.iterrows():
             for col, label in (("phi_LT", "φ_LT"), ("phi_RCP", "φ_RCP"), ("phi_GCP", "φ_GCP")):
                 rows.append({
-                    "σ": f"{r.sigma:g}", "quantity": label,
+                    idx: _label(r), "quantity": label,
                     "ours": _pm(r[col], r[f"{col}_half_width"]),
                     "paper": _fmt(r[f"{col}_paper"]) + (" *" if r[f"{col}_paper_derived"] else ""),
                     "ours − paper": _signed(r[f"{col}_minus_paper"]),
                     "(ours − paper) / half-width": _ratio(r[f"{col}_minus_paper_in_half_widths"]),
                     "flag": GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else "",
                 })
-        return pd.DataFrame(rows).set_index("σ") if rows else pd.DataFrame()
+        return pd.DataFrame(rows).set_index(idx) if rows else pd.DataFrame()
     raise InputError(f"table={name!r}: must be table2, table3 or table4")
+
+
+def _where(r) -> dict:
+    return {"distribution": r.distribution, "sigma": r.sigma} if "distribution" in r.index else {"sigma": r.sigma}
 
 
 def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     """Every cell we can set against the paper, in one long table (the report's "Comparison with the paper")."""
     rows = []
     for _, r in tables["table2"].iterrows():
-        rows.append({"table": "Table 2", "sigma": r.sigma, "row": r.curve, "quantity": "phi_GCP",
+        rows.append({"table": "Table 2", **_where(r), "row": r.curve, "quantity": "phi_GCP",
                      "ours": r.phi_gcp, "half_width": r.half_width, "paper": r.paper_phi_gcp,
                      "paper_derived": False, "ours_minus_paper": r.minus_paper,
                      "minus_paper_in_half_widths": r.minus_paper_in_half_widths,
@@ -322,7 +414,7 @@ def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     for _, r in t3.iterrows():
         for p in ("ls", "fb"):
             for side, q in (("low", "phi_min_fast"), ("high", "phi_max_fast")):
-                rows.append({"table": "Table 3", "sigma": r.sigma, "row": p.upper(), "quantity": q,
+                rows.append({"table": "Table 3", **_where(r), "row": p.upper(), "quantity": q,
                              "ours": r[f"{p}_phi_{side}"], "half_width": r[f"{p}_phi_{side}_half_width"],
                              "paper": r[f"{p}_phi_{side}_paper"], "paper_derived": False,
                              "ours_minus_paper": r[f"{p}_phi_{side}_minus_paper"],
@@ -330,12 +422,37 @@ def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
                              "note": r[f"{p}_status"] or (PAPER_MIN_NOTE if side == "low" else "")})
     for _, r in tables["table4"].iterrows():
         for col in ("phi_LT", "phi_RCP", "phi_GCP"):
-            rows.append({"table": "Table 4", "sigma": r.sigma, "row": "", "quantity": col,
+            rows.append({"table": "Table 4", **_where(r), "row": "", "quantity": col,
                          "ours": r[col], "half_width": r[f"{col}_half_width"], "paper": r[f"{col}_paper"],
                          "paper_derived": r[f"{col}_paper_derived"], "ours_minus_paper": r[f"{col}_minus_paper"],
                          "minus_paper_in_half_widths": r[f"{col}_minus_paper_in_half_widths"],
                          "note": GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else ""})
     return pd.DataFrame(rows)
+
+
+MODELS_CAPTION = "Table 4 (continued): our phi_RCP beside the published models"
+
+
+def models_formatted(t4: pd.DataFrame) -> pd.DataFrame:
+    """Per distribution: our phi_RCP, each model's and ours − model."""
+    idx = "distribution" if "distribution" in t4.columns else "σ"
+    rows = []
+    for _, r in t4.iterrows():
+        row = {idx: _label(r), "φ_RCP (ours)": _pm(r.phi_RCP, r.phi_RCP_half_width)}
+        for m, label in MODELS.items():
+            row[label] = _fmt(r[f"model_{m}"])
+            row[f"ours − {label}"] = _signed(r[f"phi_RCP_minus_{m}"])
+        rows.append(row)
+    return pd.DataFrame(rows).set_index(idx)
+
+
+def _model_notes(t4: pd.DataFrame) -> list[str]:
+    from ..analysis.psd_models import CITATIONS, VALIDITY
+
+    notes = [f"{label}: {CITATIONS[m]}; {VALIDITY[m]}." for m, label in MODELS.items()]
+    notes.append(f"Santos et al.'s input φ_mono = {float(t4.santos_phi_mono.iloc[0]):.4f}: "
+                 f"{t4.attrs.get('santos_input', '')}.")
+    return notes
 
 
 def _tex(text) -> str:
@@ -383,9 +500,10 @@ def _notes(name: str, t: pd.DataFrame) -> list[str]:
     if name == "table4":
         notes.append("* paper cell lost in the text and recomputed by the paper's rule (mean of the four Table 2 "
                      "entries).")
-        flagged = [f"{s:g}" for s, f in zip(t.sigma, t.gcp_below_rcp) if f]
+        flagged = [_label(r) for _, r in t.iterrows() if r.gcp_below_rcp]
         if flagged:
-            notes.append(f"Flag: φ_GCP < φ_RCP at σ = {', '.join(flagged)} (too little data, not a result).")
+            where = "" if "distribution" in t.columns else "σ = "
+            notes.append(f"Flag: φ_GCP < φ_RCP at {where}{', '.join(flagged)} (too little data, not a result).")
     return notes
 
 
@@ -410,9 +528,14 @@ def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
     for name, t in tables.items():
         wide = formatted(name, t, method)
         notes = _notes(name, t)
+        md, tex = _markdown(wide, CAPTIONS[name], notes), _latex(wide, CAPTIONS[name], notes)
+        if name == "table4" and len(t):  # the models beside our phi_RCP
+            models, model_notes = models_formatted(t), _model_notes(t)
+            md += "\n" + _markdown(models, MODELS_CAPTION, model_notes)
+            tex += "\n" + _latex(models, MODELS_CAPTION, model_notes)
         texts[f"{name}.csv"] = t.to_csv(index=False, float_format="%.10g")
-        texts[f"{name}.md"] = _markdown(wide, CAPTIONS[name], notes)
-        texts[f"{name}.tex"] = _latex(wide, CAPTIONS[name], notes)
+        texts[f"{name}.md"] = md
+        texts[f"{name}.tex"] = tex
     comp = comparison(tables)
     texts["comparison.csv"] = comp.to_csv(index=False, float_format="%.10g")
     texts["comparison.md"] = comparison_markdown(tables, comp)
@@ -429,7 +552,8 @@ def comparison_markdown(tables: dict[str, pd.DataFrame], comp: pd.DataFrame | No
     flagged = comp[comp.note == GCP_BELOW_RCP]
     if len(flagged):
         lines.append("**Flagged (φ_GCP < φ_RCP, a sign of too little data):** " + "; ".join(
-            f"{r.table} σ = {r.sigma:g} {r.row} {r.quantity}".replace("  ", " ") for _, r in flagged.iterrows()))
+            f"{r.table} {_label(r) if 'distribution' in r.index else f'σ = {r.sigma:g}'} {r.row} {r.quantity}"
+            .replace("  ", " ") for _, r in flagged.iterrows()))
     else:
         lines.append("No row has φ_GCP < φ_RCP.")
     n_est = int(comp.ours.notna().sum())

@@ -1,0 +1,196 @@
+"""``spherejam rcp SPEC ...``: one command from a particle-size distribution to phi_LT and phi_RCP (docs/psd.md).
+
+It fills the workflow template ``config/psd.yaml`` with the distributions and sizes given, writes it into the results
+folder, prints the cost estimate, runs the workflow (``snakemake``, as a separate program: the package does not import
+it) with its live progress, and prints phi_LT and phi_RCP with their intervals beside the three published models. The
+workflow writes the usual dataset, tables and Fig. 5; running the command again resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from ..core.errors import InputError, SpherejamError
+from ..core.validation import FIELDS
+from . import seed_int
+
+TEMPLATE = Path("config") / "psd.yaml"
+_NAME = re.compile(r"^([A-Za-z][A-Za-z0-9_-]*)=(.+)$")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("rcp", help="one command from size distributions to phi_LT, phi_RCP and the models "
+                       "(docs/psd.md)",
+                       description="Runs the workflow template config/psd.yaml (fast LS and FB compressions, each "
+                       "followed by MLS and CALiPPSO) for the distributions given and prints phi_LT and phi_RCP with "
+                       "their intervals beside the Farr-Groot, Desmond-Weeks and Santos et al. models. Run it from "
+                       "the spherejam repository (it needs the Snakefile).")
+    p.add_argument("specs", nargs="+", metavar="[NAME=]SPEC",
+                   help="size distributions, e.g. powder=table:examples/powder.csv gauss=gaussian:delta=0.2")
+    p.add_argument("--n", type=FIELDS["n"].arg, default=None, help="spheres per packing (template: 200)")
+    p.add_argument("--replicas", type=FIELDS["replicas"].arg, default=None,
+                   help="packings per rate and protocol (template: 2, i.e. 10 LS + 10 FB per distribution)")
+    p.add_argument("--seed", type=seed_int, default=None, help="master seed (template: 2014)")
+    p.add_argument("-o", "--results", type=Path, default=Path("results") / "psd", help="results folder")
+    p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=2, help="cores for the workflow (2)")
+    p.add_argument("--workflow", type=Path, default=Path("."), help="the repository with the Snakefile (.)")
+    p.add_argument("--template", type=Path, default=None,
+                   help=f"the workflow config to fill in (default: {TEMPLATE} of the repository)")
+    p.add_argument("--dry-run", action="store_true", help="print the config and the cost estimate only")
+    p.set_defaults(func=_rcp)
+
+
+def named_specs(items: list[str]) -> dict[str, str]:
+    """``NAME=SPEC`` or ``SPEC`` (named after its file stem or family) -> {name: spec}, names unique."""
+    out: dict[str, str] = {}
+    for item in items:
+        m = _NAME.match(item)
+        if m and ":" not in m.group(1):
+            name, spec = m.group(1), m.group(2)
+        else:
+            family, _, rest = item.partition(":")
+            base = Path(rest).stem if family in ("table", "list") else re.sub(r"[^A-Za-z0-9]+", "-", item).strip("-")
+            name = re.sub(r"[^A-Za-z0-9_-]", "-", base) or family
+            if not name[0].isalpha():
+                name = f"{family}-{name}"
+            spec = item
+        if name in out:
+            raise InputError(f"{item!r}: the name {name!r} is given twice (write NAME=SPEC)")
+        out[name] = spec
+    return out
+
+
+def build_config(args) -> dict:
+    import yaml
+
+    from ..core.size_distribution import parse
+
+    template = args.template or args.workflow / TEMPLATE
+    if not (args.workflow / "Snakefile").is_file():
+        raise InputError(f"--workflow={str(args.workflow)!r}: no Snakefile there (run from the spherejam "
+                         "repository, or give its path)")
+    if not template.is_file():
+        raise InputError(f"--template={str(template)!r}: no such config file")
+    config = yaml.safe_load(template.read_text())
+    dists = named_specs(args.specs)
+    for name, spec in dists.items():
+        parse(spec, name)  # a bad spec or file: one line, before anything is written
+    config["distributions"] = dists
+    config["results"] = str(args.results.resolve())
+    for key in ("n", "replicas", "seed"):
+        if getattr(args, key) is not None:
+            config[key] = getattr(args, key)
+    return config
+
+
+def _rcp(args) -> int:
+    import yaml
+
+    from ..core.atomic import atomic_output
+    from ..workflow.config import validate_config
+    from ..workflow.cost_model import plan, print_plan
+    from ..workflow.experiment import Experiment
+
+    config = build_config(args)
+    validate_config(config, args.workflow / "config" / "schema.yaml")
+    exp = Experiment(config)
+    print(f"spherejam rcp: N = {exp.n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
+          f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
+          f"CALiPPSO), results in {exp.results}")
+    _warn_box(exp)
+    print("cost estimate (the cost model, docs/cluster.md):")
+    print_plan(config)
+    cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
+    print(f"about {cpu_h * 60:.2g} CPU-minutes, {cpu_h * 60 / args.cores:.2g} min on {args.cores} cores (an idle "
+          "machine)")
+    if args.dry_run:
+        print(yaml.safe_dump(config, sort_keys=False))
+        return 0
+    if shutil.which("snakemake") is None:
+        raise SpherejamError("snakemake: not found on PATH (pip install snakemake)")
+    cfg_path = exp.results / "config.yaml"
+    cfg_path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(cfg_path, ".yaml") as tmp:
+        Path(tmp).write_text(yaml.safe_dump(config, sort_keys=False))
+    targets = [exp.paths.dataset, *exp.paths.tables(["csv", "md"]), exp.paths.figure("png", "fig5")]
+    log = exp.results / "logs" / "rcp-snakemake.log"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    cmd = ["snakemake", "--cores", str(args.cores), "--configfile", str(cfg_path.resolve()), "--snakefile",
+           str((args.workflow / "Snakefile").resolve()), "--directory", str(args.workflow.resolve()),
+           "--rerun-incomplete", "--keep-going", *targets]
+    print(f"running: {' '.join(cmd)}  (full log: {log})", flush=True)
+    with open(log, "w") as fh:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        for line in proc.stdout:  # live progress: the workflow's step counter and any error
+            fh.write(line)
+            fh.flush()
+            if re.search(r"steps \(\d+%\) done|Error|error|Nothing to be done", line):
+                print(f"  {line.rstrip()}", flush=True)
+        code = proc.wait()
+    if code != 0:
+        for line in failed_jobs(log):
+            print(f"  failed: {line}", flush=True)
+        raise SpherejamError(f"the workflow failed (exit {code}); see {log} and the job logs in {exp.results}/logs")
+    print_summary(exp.paths.table("table4", "csv"), exp.paths.table("table3", "csv"))
+    return 0
+
+
+def failed_jobs(log: Path) -> list[str]:
+    """``job log: its last line`` for every job the workflow log reports as failed (the job's one-line error)."""
+    text = Path(log).read_text(errors="replace")
+    out = []
+    for block in text.split("Error in rule ")[1:]:
+        m = re.search(r"^\s*log: (\S+)", block, re.M)
+        if m and Path(m.group(1)).is_file():
+            lines = [x for x in Path(m.group(1)).read_text(errors="replace").splitlines() if x.strip()]
+            out.append(f"{m.group(1)}: {lines[-1] if lines else '(empty log)'}")
+    return out
+
+
+def _warn_box(exp) -> None:
+    """Warn about distributions whose largest sphere (in a sample of N) leaves the box below the engines' limit."""
+    from ..core.seeding import rng_for
+    from .psd import BOX_LIMIT, box_side
+
+    for d in exp.distributions:
+        model = d.model()
+        samples = [model.draw(exp.n, rng_for(seed)) for seed in range(20)]
+        # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
+        _, d_max = model.support()[0].min(), model.support()[0].max()
+        bounded = math.isfinite(model.descriptors().size_ratio)
+        ratio = min(box_side(x) / (d_max if bounded else float(x.max())) for x in samples)
+        if ratio <= BOX_LIMIT:
+            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; the LS/MLS "
+                  f"engines need L > {BOX_LIMIT:g} d_max and will stop with 'box too small' (raise --n)", flush=True)
+
+
+def _interval(value: float, half: float, n: str) -> str:
+    if not math.isfinite(value):
+        return f"not estimable ({n})"
+    ci = f" ± {half:.4f}" if math.isfinite(half) else f", CI not estimable ({n})"
+    return f"{value:.4f}{ci}"
+
+
+def print_summary(table4: str | Path, table3: str | Path, out=None) -> None:
+    """phi_LT and phi_RCP per distribution with their intervals, beside the three models (from the tables)."""
+    import pandas as pd
+
+    from ..workflow.tables import MODELS
+
+    out = out or sys.stdout
+    t4, t3 = pd.read_csv(table4), pd.read_csv(table3)
+    key = "distribution" if "distribution" in t4 else "sigma"
+    for (_, r4), (_, r3) in zip(t4.iterrows(), t3.iterrows()):
+        n = f"n = {int(r3.ls_n_fast)} LS + {int(r3.fb_n_fast)} FB fast packings"
+        label = r4[key] if key == "distribution" else f"sigma = {r4.sigma:g}"
+        print(f"{label} ({r4.psd if 'psd' in r4 else ''})", file=out)
+        print(f"  φ_LT  = {_interval(r4.phi_LT, r4.phi_LT_half_width, n)}", file=out)
+        print(f"  φ_RCP = {_interval(r4.phi_RCP, r4.phi_RCP_half_width, n)}", file=out)
+        models = "   ".join(f"{label_}: {r4[f'model_{m}']:.4f} (ours − model {r4[f'phi_RCP_minus_{m}']:+.4f})"
+                            for m, label_ in MODELS.items())
+        print(f"  models: {models}", file=out)
