@@ -348,6 +348,7 @@ class Experiment:
             raise InputError(f"config: missing or malformed key {exc}") from None
         if not self.distributions:
             raise InputError("sigmas: give sigmas or distributions (at least one size distribution)")
+        check_distinct_paths(self.sigmas, "sigmas")
         keys = [d.key for d in self.distributions]
         if len(set(keys)) != len(keys):
             raise InputError(f"distributions: a key appears twice ({', '.join(keys)})")
@@ -358,7 +359,6 @@ class Experiment:
                     raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = {self.n}: "
                                      "set n to the list's length")
         self.paths = Paths(self.results)
-        check_distinct_paths(self.sigmas, "sigmas")
         for p in PROTOCOLS:
             check_distinct_paths(self.rates[p], f"{p}.rates")
             for k, (_, extra) in enumerate(self.extra_rates[p]):
