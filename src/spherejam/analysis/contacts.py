@@ -59,14 +59,15 @@ def packing_pressure(packing: Packing, pressure: float | None = None) -> float |
 
 
 def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """All pairs i < j with relative gap h_ij = r_ij/D_ij - 1 < ``max_gap`` (overlaps give h < 0).
+    """All pairs i < j with relative gap h_ij = r_ij/D_ij - 1 < ``max_gap`` (overlaps give h < 0), once per periodic
+    image within reach: in a box smaller than two contact distances a pair may touch through several images.
 
-    Returns ``(i, j, h)`` sorted by (i, j).
+    Returns ``(i, j, h)`` sorted by (i, j, h).
     """
     require(math.isfinite(max_gap) and max_gap > -1, "max_gap", max_gap, "must be a finite number > -1")
-    i, j, r = packing.pairs_within(1.0 + max_gap)
+    i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.box, 1.0 + max_gap)
     dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
-    return i, j, r / dij - 1.0
+    return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0
 
 
 def contact_pairs(packing: Packing, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -278,6 +278,82 @@ def closest_pair(positions: np.ndarray, diameters: np.ndarray, box: float):
         scale *= 2.0
 
 
+@njit(cache=True)
+def _extra_images_kernel(positions, diameters, box, scale, big, is_big, count_only, out_i, out_j, out_d):
+    """The images other than the minimum one of the pairs i < j with |x_j + n L - x_i| < scale * D_ij, for the
+    pairs with a sphere in ``big`` (only those can have one). Returns their number."""
+    n, dim = positions.shape
+    d = np.empty(dim)
+    lo = np.empty(dim, dtype=np.int64)
+    span = np.empty(dim, dtype=np.int64)
+    count = 0
+    for a in range(big.shape[0]):
+        i0 = big[a]
+        for j0 in range(n):
+            if j0 == i0 or (is_big[j0] and j0 < i0):
+                continue  # a pair of two big spheres is visited from its lower index
+            i = min(i0, j0)
+            j = max(i0, j0)
+            cut = scale * 0.5 * (diameters[i] + diameters[j])
+            total = 1
+            for k in range(dim):
+                d[k] = minimum_image(positions[j, k] - positions[i, k], box)
+                lo[k] = int(np.ceil((-cut - d[k]) / box))
+                span[k] = max(int(np.floor((cut - d[k]) / box)) - lo[k] + 1, 0)
+                total *= span[k]
+            for code in range(total):
+                c = code
+                r2 = 0.0
+                zero = True
+                for k in range(dim):
+                    nk = lo[k] + c % span[k]
+                    c //= span[k]
+                    zero = zero and nk == 0
+                    x = d[k] + nk * box
+                    r2 += x * x
+                if zero or not r2 < cut * cut:
+                    continue
+                if not count_only:
+                    c = code
+                    for k in range(dim):
+                        out_d[count, k] = d[k] + (lo[k] + c % span[k]) * box
+                        c //= span[k]
+                    out_i[count] = i
+                    out_j[count] = j
+                count += 1
+    return count
+
+
+def pair_images(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.0):
+    """Every periodic image of every pair i < j with |x_j + n L - x_i| < scale * D_ij: ``(i, j, d)``, d the (K, d)
+    vectors x_j + n L - x_i, sorted by (i, j, |d|).
+
+    A pair appears once per image within reach, so in a box smaller than two contact distances (small N or a wide
+    size ratio) it may appear several times; otherwise this is :func:`pairs_within` with minimum-image vectors.
+    A sphere's own images are left out (a sphere wider than L overlaps itself: :meth:`Packing.check`).
+    """
+    positions = np.ascontiguousarray(positions, dtype=np.float64)
+    diameters = np.ascontiguousarray(diameters, dtype=np.float64)
+    box = float(box)
+    i, j, _ = pairs_within(positions, diameters, box, scale)
+    d = positions[j] - positions[i]
+    d -= box * np.floor(d / box + 0.5)
+    # an image other than the minimum one lies >= L/2 away along some axis, so only a pair with scale D_ij >= L/2
+    # has one: its larger sphere has D >= L / (2 scale) and D >= L / scale - D_max
+    threshold = max(0.5 * box / scale, box / scale - float(diameters.max()))
+    is_big = diameters >= threshold
+    big = np.flatnonzero(is_big)
+    if len(big):
+        args = (positions, diameters, box, float(scale), big.astype(np.int64), is_big)
+        count = _extra_images_kernel(*args, True, np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 1)))
+        ei, ej, ed = np.empty(count, np.int64), np.empty(count, np.int64), np.empty((count, positions.shape[1]))
+        _extra_images_kernel(*args, False, ei, ej, ed)
+        i, j, d = np.concatenate([i, ei]), np.concatenate([j, ej]), np.concatenate([d, ed])
+        key = np.lexsort((np.einsum("ij,ij->i", d, d), j, i))
+        i, j, d = i[key], j[key], d[key]
+    return i, j, d
+
+
 def brute_force_pairs(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.0):
     """O(N^2) reference for :func:`pairs_within` (tests and tiny systems)."""
     n = len(positions)

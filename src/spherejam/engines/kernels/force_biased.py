@@ -111,8 +111,12 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
 
 
 @njit(cache=True)
-def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
-    """Bezrukov forces of the pairs whose outer spheres overlap; returns min r_ij / D_ij over the list."""
+def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx, multi):
+    """Bezrukov forces of the pairs whose outer spheres overlap; returns min r_ij / D_ij over the list.
+
+    ``multi``: an outer sphere may reach several images of a listed neighbour (rho_out D_ij > L/2); each adds its
+    force (the minimum image is the closest, so the returned minimum is unchanged).
+    """
     n, dim = positions.shape
     half = 0.5 * box
     forces[:, :] = 0.0
@@ -134,7 +138,41 @@ def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
                 for a in range(dim):
                     forces[i, a] += f * dx[a]
                     forces[j, a] -= f * dx[a]
+            if multi:
+                _image_forces(i, j, di * diameters[j], dij, rho2, box, dx, forces)
     return np.sqrt(hmin2)
+
+
+@njit(cache=True, inline="always")
+def _image_forces(i, j, dd, dij, rho2, box, dx, forces):
+    """Add the forces of the images x_j + n L other than the minimum one (x_i - x_j = ``dx``) within rho_out D_ij."""
+    dim = dx.shape[0]
+    cut = np.sqrt(rho2) * dij
+    lo = np.empty(dim, dtype=np.int64)
+    span = np.empty(dim, dtype=np.int64)
+    e = np.empty(dim)
+    total = 1
+    for a in range(dim):
+        lo[a] = int(np.ceil((dx[a] - cut) / box))
+        span[a] = max(int(np.floor((dx[a] + cut) / box)) - lo[a] + 1, 0)
+        total *= span[a]
+    for code in range(total):
+        c = code
+        r2 = 0.0
+        zero = True
+        for a in range(dim):
+            na = lo[a] + c % span[a]
+            c //= span[a]
+            zero = zero and na == 0
+            e[a] = dx[a] - na * box
+            r2 += e[a] * e[a]
+        h2 = r2 / (dij * dij)
+        if zero or not h2 < rho2:
+            continue
+        f = dd * (1.0 - h2 / rho2) / np.sqrt(r2)
+        for a in range(dim):
+            forces[i, a] += f * e[a]
+            forces[j, a] -= f * e[a]
 
 
 @njit(cache=True)
