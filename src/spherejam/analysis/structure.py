@@ -163,6 +163,8 @@ def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRES
 # --- radical (power) Voronoi tessellation ---------------------------------------------------------------------
 
 
+#: Widest shell of periodic images tried around the box, in box lengths (a box of a few spheres needs more than one).
+MAX_SHELL = 3.0
 _FLAG_ORDERS = np.array(list(itertools.permutations(range(3))), dtype=np.int64)
 
 

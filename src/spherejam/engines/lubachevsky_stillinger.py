@@ -114,10 +114,13 @@ class LSEngine:
         Lists are built for diameters up to (1 + list_margin) times the current ones while compressing.
     dilute_neighbours : float
         In dilute states the list radius is widened so that about this many centres fall inside it.
+    all_images : bool
+        Predict collisions through every periodic image even where the minimum image suffices (a list cutoff
+        below L/2): the slower path of small boxes, for tests.
     """
 
     def __init__(self, positions, nominal, box, rho, velocities, gamma, temperature=DEFAULT_TEMPERATURE, *,
-                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0):
+                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0, all_images=False):
         positions = np.asarray(positions, dtype=np.float64)
         n = positions.shape[0]
         self.n = n
@@ -132,6 +135,7 @@ class LSEngine:
         self.skin_fraction = float(skin_fraction)
         self.list_margin = float(list_margin)
         self.dilute_neighbours = float(dilute_neighbours)
+        self.all_images = bool(all_images)
         self.allocate_events()
         self.list_rebuilds = 0
         self.perm = np.arange(n)  # internal index -> input index (particles are renumbered in cell order)
@@ -165,7 +169,7 @@ class LSEngine:
         spacing = (box**3 / n) ** (1.0 / 3.0)
         r_dilute = spacing * (3.0 * self.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
         limit = 0.45 * box  # single image: every list cutoff stays below L/2
-        self.multi = not rho * dmax < 0.9 * limit
+        self.multi = self.all_images or not rho * dmax < 0.9 * limit
         if not self.multi:
             rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
             skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
@@ -521,12 +525,13 @@ def run_windows(packing: Packing, controller: Controller, options: RunOptions, *
 
 
 def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options: dict[str, Any] | None) -> None:
-    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0}
+    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0, "all_images": False}
     opts.update(options or {})
     engine.n, engine.box, engine.temperature = n, float(box), float(temperature)
     engine.skin_fraction = float(opts["skin_fraction"])
     engine.list_margin = float(opts["list_margin"])
     engine.dilute_neighbours = float(opts["dilute_neighbours"])
+    engine.all_images = bool(opts["all_images"])
     engine.allocate_events()
 
 
@@ -567,8 +572,8 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
     callback : callable(window_index, WindowStats) or None
         Called after every window (e.g. for monitoring; an exception aborts the run, keeping the checkpoint).
     engine_options : dict or None
-        Tuning of the neighbour lists (``skin_fraction``, ``list_margin``, ``dilute_neighbours``); no effect on
-        the physics.
+        Tuning of the neighbour lists (``skin_fraction``, ``list_margin``, ``dilute_neighbours``, ``all_images``);
+        no effect on the physics.
 
     Returns
     -------
