@@ -18,7 +18,9 @@ Binnings of the same cells
 Pair search
     A pair (i, j) is *within scale s* when its minimum-image distance r_ij < s * D_ij, with D_ij = (D_i + D_j)/2 the
     contact distance. The cell side is at least s * max_i D_i >= s * max_ij D_ij, so every such pair lies in the
-    same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio.
+    same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio. The minimum
+    image is a pair's closest image, so overlap checks need no other; :func:`pair_images` adds the other images
+    within reach, which exist when s * D_ij > L/2 (contacts and bonds in small boxes).
 
 All kernels are numba ``njit(cache=True)`` functions over plain arrays; the small geometry helpers are inlined into
 the engines' kernels. Numba keys a cached kernel on its own source file only: after editing this module, clear the

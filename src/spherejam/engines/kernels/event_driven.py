@@ -22,8 +22,10 @@ Neighbour lists (exact at every density)
     skin sphere is a per-particle event (a local, symmetric list update through a linked-cell grid, no global sweep);
     reaching rho_list ends a kernel call (``HORIZON``) so the caller rebuilds all lists. Both the skin and rho_list
     are set from the *actual* diameters, so growth from phi ~ 1e-5 to jamming stays exact and O(N) per sweep.
-    Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold is always
-    the minimum image (every list cutoff is < L/2).
+    Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold gives the
+    minimum image. A pair is listed once, by its minimum image; in a box smaller than two list cutoffs (``multi``:
+    small N, or a sphere wider than ~L/2.5) the prediction also tries the images one box length away, and a
+    collision is resolved on the image that was predicted (docs/algorithms.md, "Any box, any size ratio").
 
 Speed (the hot loop is a prediction over ~10 neighbours)
     Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
@@ -423,13 +425,39 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 
 @njit(cache=True, inline="always")
+def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
+                    ev_time, nbr, nnb, box, gamma, skin, rho_list):
+    """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
+    within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
+    within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
+    half = 0.5 * box
+    di = st[i, 7]
+    for kk in range(nnb[i]):
+        j = nbr[i, kk]
+        dtj = t - st[j, 6]
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
+        sig = 0.5 * (di + st[j, 7])
+        tau, _ = image_collision(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi, sig, rho, gamma, box,
+                                 rho_list * sig + 2.0 * skin, exclude_image if j == exclude else -1)
+        tc = t + tau
+        if tc < best and tc <= ev_time[j]:
+            best = tc
+            best_type = COLLISION
+            best_j = j
+    return best, best_type, best_j
+
+
+@njit(cache=True, inline="always")
 def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
              rho0, gamma, skin, rho_list, multi, update_heap):
     """Schedule particle i's next event at time t (its own current event is released first).
 
     ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
-    collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass some 100 words of array descriptors per prediction.
+    collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
+    some 100 words of array descriptors per prediction.
     """
     n = st.shape[0]
     half = 0.5 * box
@@ -453,9 +481,13 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     best_j = -1
     for kk in range(nnb[i]):
         _prefetch_row(st, nbr[i, kk])
-    for kk in range(nnb[i]):
+    if multi:  # outside the loop: the single-image loop below stays as tight as it was
+        best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
+                                                  best_type, best_j, st, ev_time, nbr, nnb, box, gamma, skin,
+                                                  rho_list)
+    for kk in range(0 if multi else nnb[i]):
         j = nbr[i, kk]
-        if j == exclude and not multi:
+        if j == exclude:
             continue
         dtj = t - st[j, 6]
         ux = st[j, 3] - vxi
@@ -465,17 +497,6 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
         ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
         rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
         sig = 0.5 * (di + st[j, 7])
-        if multi:
-            # a collision before the next list event starts within rho_list D_ij + 2 skin (both spheres stay within
-            # skin/2 of their reference centres)
-            tau, _ = image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, box, rho_list * sig + 2.0 * skin,
-                                     exclude_image if j == exclude else -1)
-            tc = t + tau
-            if tc < best and tc <= ev_time[j]:
-                best = tc
-                best_type = COLLISION
-                best_j = j
-            continue
         s2 = sig * sig
         b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
         a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
