@@ -27,8 +27,8 @@ def run(path: str) -> None:
     for n, sigma, seed in CASES:
         start = poisson_packing(n, sigma, seed=seed)
         runs = {
-            "ls": lambda p: run_ls(p, 0.1, seed=seed, progress_interval=1e9),
-            "mls": lambda p: find_closest_jamming(p, final_rate=1e-2, seed=seed, progress_interval=1e9),
+            "ls": lambda p, seed=seed: run_ls(p, 0.1, seed=seed, progress_interval=1e9),
+            "mls": lambda p, seed=seed: find_closest_jamming(p, final_rate=1e-2, seed=seed, progress_interval=1e9),
             "fb": lambda p: run_fb(p, 1e-2, progress_interval=1e9),
         }
         for alg, fn in runs.items():

@@ -280,12 +280,40 @@ def closest_pair(positions: np.ndarray, diameters: np.ndarray, box: float):
         scale *= 2.0
 
 
+@njit(cache=True, inline="always")
+def image_span(d, cut, box, lo, span):
+    """The images n (integer vectors) of a difference ``d`` with |d_k + n_k L| < ``cut`` along every axis k:
+    n_k = lo[k] ... lo[k] + span[k] - 1, written to ``lo`` and ``span``; returns their number, prod span[k]. Image
+    number ``code`` (0 <= code < that) is n_k = lo[k] + (code // prod_{q<k} span[q]) % span[k]."""
+    total = 1
+    for k in range(d.shape[0]):
+        lo[k] = int(np.ceil((-cut - d[k]) / box))
+        span[k] = max(int(np.floor((cut - d[k]) / box)) - lo[k] + 1, 0)
+        total *= span[k]
+    return total
+
+
+@njit(cache=True, inline="always")
+def image_vector(code, d, box, lo, span, out):
+    """Write d + n L of image ``code`` of :func:`image_span` to ``out``; returns (|d + n L|^2, n == 0)."""
+    r2 = 0.0
+    zero = True
+    for k in range(d.shape[0]):
+        nk = lo[k] + code % span[k]
+        code //= span[k]
+        zero = zero and nk == 0
+        out[k] = d[k] + nk * box
+        r2 += out[k] * out[k]
+    return r2, zero
+
+
 @njit(cache=True)
 def _extra_images_kernel(positions, diameters, box, scale, big, is_big, count_only, out_i, out_j, out_d):
     """The images other than the minimum one of the pairs i < j with |x_j + n L - x_i| < scale * D_ij, for the
     pairs with a sphere in ``big`` (only those can have one). Returns their number."""
     n, dim = positions.shape
     d = np.empty(dim)
+    e = np.empty(dim)
     lo = np.empty(dim, dtype=np.int64)
     span = np.empty(dim, dtype=np.int64)
     count = 0
@@ -297,29 +325,14 @@ def _extra_images_kernel(positions, diameters, box, scale, big, is_big, count_on
             i = min(i0, j0)
             j = max(i0, j0)
             cut = scale * 0.5 * (diameters[i] + diameters[j])
-            total = 1
             for k in range(dim):
                 d[k] = minimum_image(positions[j, k] - positions[i, k], box)
-                lo[k] = int(np.ceil((-cut - d[k]) / box))
-                span[k] = max(int(np.floor((cut - d[k]) / box)) - lo[k] + 1, 0)
-                total *= span[k]
-            for code in range(total):
-                c = code
-                r2 = 0.0
-                zero = True
-                for k in range(dim):
-                    nk = lo[k] + c % span[k]
-                    c //= span[k]
-                    zero = zero and nk == 0
-                    x = d[k] + nk * box
-                    r2 += x * x
+            for code in range(image_span(d, cut, box, lo, span)):
+                r2, zero = image_vector(code, d, box, lo, span, e)
                 if zero or not r2 < cut * cut:
                     continue
                 if not count_only:
-                    c = code
-                    for k in range(dim):
-                        out_d[count, k] = d[k] + (lo[k] + c % span[k]) * box
-                        c //= span[k]
+                    out_d[count, :] = e
                     out_i[count] = i
                     out_j[count] = j
                 count += 1

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...core.neighbours import cell_sort, fold, stencil_cell, stencil_size, unravel_cell
+from ...core.neighbours import cell_sort, fold, image_span, image_vector, stencil_cell, stencil_size, unravel_cell
 
 
 @njit(cache=True, inline="always")
@@ -145,27 +145,13 @@ def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx, multi
 
 @njit(cache=True, inline="always")
 def _image_forces(i, j, dd, dij, rho2, box, dx, forces):
-    """Add the forces of the images x_j + n L other than the minimum one (x_i - x_j = ``dx``) within rho_out D_ij."""
+    """Add the forces of the images of j other than the minimum one (x_i - x_j = ``dx``) within rho_out D_ij."""
     dim = dx.shape[0]
-    cut = np.sqrt(rho2) * dij
     lo = np.empty(dim, dtype=np.int64)
     span = np.empty(dim, dtype=np.int64)
     e = np.empty(dim)
-    total = 1
-    for a in range(dim):
-        lo[a] = int(np.ceil((dx[a] - cut) / box))
-        span[a] = max(int(np.floor((dx[a] + cut) / box)) - lo[a] + 1, 0)
-        total *= span[a]
-    for code in range(total):
-        c = code
-        r2 = 0.0
-        zero = True
-        for a in range(dim):
-            na = lo[a] + c % span[a]
-            c //= span[a]
-            zero = zero and na == 0
-            e[a] = dx[a] - na * box
-            r2 += e[a] * e[a]
+    for code in range(image_span(dx, np.sqrt(rho2) * dij, box, lo, span)):
+        r2, zero = image_vector(code, dx, box, lo, span, e)
         h2 = r2 / (dij * dij)
         if zero or not h2 < rho2:
             continue
