@@ -424,13 +424,12 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 # --- event prediction ---------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
                     ev_time, nbr, nnb, box, gamma, skin, rho_list):
     """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
     within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
-    within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``. Not inlined: it
-    runs in small boxes only, and keeps the code of the single-image loop small."""
+    within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
     half = 0.5 * box
     di = st[i, 7]
     for kk in range(nnb[i]):
