@@ -153,6 +153,7 @@ class LSEngine:
         self.heap = np.zeros(n, dtype=np.int32)
         self.hpos = np.zeros(n, dtype=np.int32)
         self.hkey = np.zeros(n)
+
     @property
     def rho_limit(self) -> float:
         """The scale factor at which the largest sphere touches its own periodic image (diameter L): no sphere can
@@ -177,7 +178,7 @@ class LSEngine:
         else:  # pairs may meet through several images (docs/algorithms.md, "Any box, any size ratio")
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
             skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
-            skin = min(skin, MULTI_IMAGE_MAX_SKIN * box)  # images one box away suffice (image_collision_delay)
+            skin = min(skin, MULTI_IMAGE_MAX_SKIN * box)  # images one box away suffice (ed.image_collision)
         m = cells_per_side(box, rho_list * dmax + skin, 3, n)
         self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]
