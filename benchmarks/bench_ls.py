@@ -12,14 +12,31 @@ Also the cold-start time of a new process (import + cached numba code + a tiny r
 
     python benchmarks/bench_ls.py                    # N = 1e3, 1e4; peer at N = 1e4
     python benchmarks/bench_ls.py --sizes 100000 --no-peer
+
+Issue 35 (any box, any size ratio), each case in a fresh process (so its peak memory is its own):
+
+    python benchmarks/bench_ls.py before-after --baseline-src /work/main/src   # N = 1e3, 1e4, sigma 0, 0.3
+    python benchmarks/bench_ls.py wide [--baseline-src ...]   # N = 1e4: mono, 1:1.4, 1:3, 1:10, log-normal 0.5
+    python benchmarks/bench_ls.py scale --sizes 100000 1000000 --max-wall 900   # sigma 0.3, gamma = 1
+
+``before-after`` runs each case alternately with the baseline's package and this one (``--repeats`` times) and prints
+the ratio of collisions per CPU second (each process's own CPU time: the machine is shared); ``wide`` prints each
+distribution's rate against the monodisperse one of the same run, the time to jam and the peak memory. Bidisperse
+mixtures have 30 % of the sphere volume in the small spheres; starts are Poisson, compressed by LS at gamma = 1 to
+phi = 0.58 (not timed), then LS at gamma = 1e-2 to p = 1e12 (timed).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import resource
 import subprocess
 import sys
 import time
+
+import numpy as np
 
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.lubachevsky_stillinger import run_ls
@@ -80,7 +97,125 @@ def peer(n: int, rate: float) -> None:
           f"wall-clock ratio {coll / wall / (sp_coll / sp_wall):.2f}")
 
 
+# --- issue 35: before/after, wide size distributions, scale -----------------------------------------------------
+
+#: Wide distributions of the issue: name -> (kind, parameter).
+WIDE = {"mono": ("sigma", 0.0), "bi1.4": ("bi", 1.4), "bi3": ("bi", 3.0), "bi10": ("bi", 10.0),
+        "lognormal0.5": ("sigma", 0.5)}
+
+
+def bidisperse_start(n: int, ratio: float, small_volume: float = 0.3, seed: int = 12345):
+    """Poisson centres, two sizes 1 : ratio with ``small_volume`` of the sphere volume in the small ones, closest pair
+    touching."""
+    from spherejam.core.packing import Packing
+
+    per_large = (1.0 - small_volume) / small_volume / ratio**3  # large spheres per small one
+    n_large = max(1, round(n * per_large / (1.0 + per_large)))
+    d = np.ones(n)
+    d[:n_large] = ratio
+    rng = np.random.default_rng(seed)
+    box = (np.sum(np.pi / 6 * d**3) / 0.3) ** (1.0 / 3.0)
+    return Packing(rng.random((n, 3)) * box, d * 1e-3, box).scaled_to_contact()
+
+
+def case(n: int, dist: str, rate: float, prepare: bool, max_wall: float | None) -> dict:
+    """One timed LS run (in this process); returns its figures and this process's peak memory."""
+    kind, value = WIDE[dist] if dist in WIDE else ("sigma", float(dist.removeprefix("sigma")))
+    start = poisson_packing(n, value, seed=12345) if kind == "sigma" else bidisperse_start(n, value)
+    if prepare:
+        start = run_ls(start, 1.0, seed=7, target_phi=0.58, progress_interval=1e9).packing
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    r = run_ls(start, rate, seed=3, progress_interval=1e9, max_wall_time=max_wall)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    c = r.stats.as_dict()
+    return {"n": n, "dist": dist, "rate": rate, "phi": r.packing.phi, "stop": c["stop_reason"],
+            "collisions": c["collisions"], "wall": wall, "cpu": cpu, "per_s": c["collisions"] / cpu,
+            "pressure": r.packing.metadata["reduced_pressure"], "d_ratio": float(start.diameters.max() /
+                                                                                 start.diameters.min()),
+            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def run_case(src: str | None, n: int, dist: str, rate: float, prepare: bool = True,
+             max_wall: float | None = None) -> dict:
+    """:func:`case` in a fresh process importing spherejam from ``src`` (None: this environment's)."""
+    env = dict(os.environ)
+    if src is not None:
+        env["PYTHONPATH"] = src
+    args = [sys.executable, __file__, "case", "--n", str(n), "--dist", dist, "--rate", repr(rate)]
+    if not prepare:
+        args.append("--no-prepare")
+    if max_wall is not None:
+        args += ["--max-wall", repr(max_wall)]
+    out = subprocess.run(args, capture_output=True, text=True, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _line(label: str, b: dict) -> str:
+    return (f"{label:8s} N={b['n']:>7} {b['dist']:>12s} phi={b['phi']:.5f} stop={b['stop']:<13s} "
+            f"collisions={b['collisions']:>13,} wall={b['wall']:7.1f}s cpu={b['cpu']:7.1f}s "
+            f"{b['per_s'] / 1e6:6.3f} M/cpu-s "
+            f"peak={b['peak_mb']:7.0f} MB")
+
+
+def before_after(baseline: str, sizes, sigmas, repeats: int) -> None:
+    here = str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src")
+    for n in sizes:
+        for sigma in sigmas:
+            old, new = [], []
+            for _ in range(repeats):  # alternate, so that drifts of the machine's load hit both alike
+                old.append(run_case(baseline, n, f"sigma{sigma}", RATE))
+                new.append(run_case(here, n, f"sigma{sigma}", RATE))
+            print(_line("before", max(old, key=lambda b: b["per_s"])))
+            print(_line("after", max(new, key=lambda b: b["per_s"])))
+            same = all(a["phi"] == b["phi"] and a["collisions"] == b["collisions"] for a, b in zip(old, new))
+            ratio = max(b["per_s"] for b in new) / max(b["per_s"] for b in old)
+            print(f"  ratio after/before (best of {repeats}) = {ratio:.3f}; identical phi and collisions: {same}",
+                  flush=True)
+
+
+def wide(baseline: str | None, n: int) -> None:
+    sources = [("after", str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src"))]
+    if baseline:
+        sources.insert(0, ("before", baseline))
+    for label, src in sources:
+        mono = None
+        for dist in WIDE:
+            b = run_case(src, n, dist, RATE)
+            mono = mono or b["per_s"]
+            print(_line(label, b) + f"  d_max/d_min={b['d_ratio']:.1f}  rate/mono={b['per_s'] / mono:.2f}",
+                  flush=True)
+
+
+def scale(sizes, max_wall: float) -> None:
+    for n in sizes:
+        b = run_case(None, n, "sigma0.3", 1.0, prepare=False, max_wall=max_wall)
+        print(_line("scale", b) + f"  p={b['pressure']:.3g} (gamma = 1 from Poisson; budget {max_wall:g} s)",
+              flush=True)
+
+
 def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] in ("case", "before-after", "wide", "scale"):
+        ap = argparse.ArgumentParser(description="issue 35 modes (see the module docstring)")
+        ap.add_argument("mode")
+        ap.add_argument("--n", type=int, default=10000)
+        ap.add_argument("--dist", default="mono")
+        ap.add_argument("--rate", type=float, default=RATE)
+        ap.add_argument("--no-prepare", action="store_true")
+        ap.add_argument("--max-wall", type=float, default=None)
+        ap.add_argument("--baseline-src")
+        ap.add_argument("--sizes", type=int, nargs="*", default=None)
+        ap.add_argument("--sigmas", type=float, nargs="*", default=[0.0, 0.3])
+        ap.add_argument("--repeats", type=int, default=2)
+        a = ap.parse_args()
+        if a.mode == "case":
+            print(json.dumps(case(a.n, a.dist, a.rate, not a.no_prepare, a.max_wall)))
+        elif a.mode == "before-after":
+            before_after(a.baseline_src, a.sizes or [1000, 10000], a.sigmas, a.repeats)
+        elif a.mode == "wide":
+            wide(a.baseline_src, a.n)
+        else:
+            scale(a.sizes or [100000, 1000000], a.max_wall or 900.0)
+        return
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000])
     ap.add_argument("--sigmas", type=float, nargs="*", default=[0.0, 0.3])

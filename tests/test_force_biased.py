@@ -40,7 +40,7 @@ def test_forces_match_brute_force_bezrukov(rng):
     m = neighbours.cells_per_side(box, rho_out * dia.max() + 0.3, 3, n)
     start, nbr = kernels.build_verlet(pos, dia, box, rho_out, 0.3, m, 64 * n)
     forces = np.empty_like(pos)
-    h = kernels.forces(pos, dia, box, rho_out, start, nbr, forces, np.empty(3))
+    h = kernels.forces(pos, dia, box, rho_out, start, nbr, forces, np.empty(3), False)
     expected = np.zeros_like(pos)
     hmin = np.inf
     for i in range(n):

@@ -23,6 +23,7 @@ K_0 = d(N' - 1) + 1 contacts among themselves; a random jammed packing has exact
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import asdict, dataclass
 
@@ -59,14 +60,15 @@ def packing_pressure(packing: Packing, pressure: float | None = None) -> float |
 
 
 def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """All pairs i < j with relative gap h_ij = r_ij/D_ij - 1 < ``max_gap`` (overlaps give h < 0).
+    """All pairs i < j with relative gap h_ij = r_ij/D_ij - 1 < ``max_gap`` (overlaps give h < 0), once per periodic
+    image within reach: in a box smaller than two contact distances a pair may touch through several images.
 
-    Returns ``(i, j, h)`` sorted by (i, j).
+    Returns ``(i, j, h)`` sorted by (i, j, h).
     """
     require(math.isfinite(max_gap) and max_gap > -1, "max_gap", max_gap, "must be a finite number > -1")
-    i, j, r = packing.pairs_within(1.0 + max_gap)
+    i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.box, 1.0 + max_gap)
     dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
-    return i, j, r / dij - 1.0
+    return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0
 
 
 def contact_pairs(packing: Packing, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -284,6 +286,18 @@ def tolerance_scan(
 
 
 def brute_force_contacts(packing: Packing, tolerance: float):
-    """O(N^2) reference for :func:`contact_pairs` (tests)."""
-    i, j, r = neighbours.brute_force_pairs(packing.positions, packing.diameters, packing.box, 1.0 + tolerance)
-    return i, j, r / (0.5 * (packing.diameters[i] + packing.diameters[j])) - 1.0
+    """O(N^2) reference for :func:`contact_pairs` over every periodic image, no cell list (tests)."""
+    x, d, box = packing.positions, packing.diameters, packing.box
+    reach = math.ceil((1.0 + tolerance) * float(d.max()) / box) + 1
+    ii, jj = np.triu_indices(packing.n, 1)
+    dij = 0.5 * (d[ii] + d[jj])
+    out = [], [], []
+    for n in itertools.product(range(-reach, reach + 1), repeat=packing.dim):
+        v = x[jj] + box * np.asarray(n, dtype=float) - x[ii]
+        h = np.sqrt((v * v).sum(axis=1)) / dij - 1.0
+        keep = h < tolerance
+        for part, a in zip(out, (ii[keep], jj[keep], h[keep])):
+            part.append(a)
+    i, j, h = (np.concatenate(a) for a in out)
+    key = np.lexsort((h, j, i))
+    return i[key], j[key], h[key]

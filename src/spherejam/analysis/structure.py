@@ -81,12 +81,10 @@ def _require_3d(packing: Packing, what: str) -> None:
 
 
 def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
-    """Bonds of the Steinhardt network: pairs i < j with r_ij < ``cutoff`` * D_ij, and their minimum-image vectors."""
+    """Bonds of the Steinhardt network: pairs i < j with r_ij < ``cutoff`` * D_ij and their vectors, one per periodic
+    image within reach (:func:`spherejam.core.neighbours.pair_images`)."""
     require(math.isfinite(cutoff) and cutoff > 0, "cutoff", cutoff, "must be a finite number > 0")
-    i, j, _ = packing.pairs_within(cutoff)
-    d = packing.positions[j] - packing.positions[i]
-    d -= packing.box * np.floor(d / packing.box + 0.5)
-    return i, j, d
+    return neighbours.pair_images(packing.positions, packing.diameters, packing.box, cutoff)
 
 
 def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF, bonds=None):  # noqa: E741 (degree l)
@@ -166,6 +164,8 @@ def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRES
 # --- radical (power) Voronoi tessellation ---------------------------------------------------------------------
 
 
+#: Widest shell of periodic images tried around the box, in box lengths (a box of a few spheres needs more than one).
+MAX_SHELL = 3.0
 _FLAG_ORDERS = np.array(list(itertools.permutations(range(3))), dtype=np.int64)
 
 
@@ -250,9 +250,11 @@ def _power_cell_volumes(points, weights, tets, n_orig, box, shell, max_weight, o
 
 
 def _periodic_shell(positions, weights, box, shell):
-    """Positions and weights with the periodic images that fall within ``shell`` of the box."""
+    """Positions and weights with the periodic images that fall within ``shell`` of the box (any shell: a small
+    box needs images beyond its neighbours)."""
     pts, wts = [positions], [weights]
-    for shift in itertools.product((-1, 0, 1), repeat=3):
+    reach = math.ceil(shell / box)
+    for shift in itertools.product(range(-reach, reach + 1), repeat=3):
         if shift == (0, 0, 0):
             continue
         y = positions + box * np.asarray(shift, dtype=np.float64)
@@ -277,7 +279,7 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
     positions, diameters = packing.positions / unit, packing.diameters / unit
     weights = 0.25 * diameters**2 if radical else np.zeros(n)
     spacing = (box**3 / n) ** (1.0 / 3.0)
-    shell = min(2.0 * spacing + float(diameters.max()), box)
+    shell = min(2.0 * spacing + float(diameters.max()), MAX_SHELL * box)
     while True:
         pts, wts = _periodic_shell(positions, weights, box, shell)
         lifted = np.column_stack([pts, np.einsum("ij,ij->i", pts, pts) - wts])
@@ -289,9 +291,9 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
         bad = _power_cell_volumes(pts, wts, tets, n, box, shell, float(wts.max()), _FLAG_ORDERS, volumes)
         if bad == 0:
             break
-        if shell >= box:
-            raise SimulationError(f"Voronoi: {bad} tetrahedra not certified even with a shell of one box side")
-        shell = min(2.0 * shell, box)
+        if shell >= MAX_SHELL * box:
+            raise SimulationError(f"Voronoi: {bad} tetrahedra not certified even with a shell of {MAX_SHELL} box sides")
+        shell = min(2.0 * shell, MAX_SHELL * box)
     total = volumes.sum()
     if not (np.all(volumes > 0) and abs(total / box**3 - 1.0) < 1e-8):
         raise SimulationError(

@@ -18,7 +18,9 @@ Binnings of the same cells
 Pair search
     A pair (i, j) is *within scale s* when its minimum-image distance r_ij < s * D_ij, with D_ij = (D_i + D_j)/2 the
     contact distance. The cell side is at least s * max_i D_i >= s * max_ij D_ij, so every such pair lies in the
-    same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio.
+    same or an adjacent cell whatever the size ratio; the search costs O(N) for a bounded size ratio. The minimum
+    image is a pair's closest image, so overlap checks need no other; :func:`pair_images` adds the other images
+    within reach, which exist when s * D_ij > L/2 (contacts and bonds in small boxes).
 
 All kernels are numba ``njit(cache=True)`` functions over plain arrays; the small geometry helpers are inlined into
 the engines' kernels. Numba keys a cached kernel on its own source file only: after editing this module, clear the
@@ -276,6 +278,95 @@ def closest_pair(positions: np.ndarray, diameters: np.ndarray, box: float):
         if scale > max_scale:
             raise ValueError("closest_pair found no pair (degenerate diameters?)")
         scale *= 2.0
+
+
+@njit(cache=True, inline="always")
+def image_span(d, cut, box, lo, span):
+    """The images n (integer vectors) of a difference ``d`` with |d_k + n_k L| < ``cut`` along every axis k:
+    n_k = lo[k] ... lo[k] + span[k] - 1, written to ``lo`` and ``span``; returns their number, prod span[k]. Image
+    number ``code`` (0 <= code < that) is n_k = lo[k] + (code // prod_{q<k} span[q]) % span[k]."""
+    total = 1
+    for k in range(d.shape[0]):
+        lo[k] = int(np.ceil((-cut - d[k]) / box))
+        span[k] = max(int(np.floor((cut - d[k]) / box)) - lo[k] + 1, 0)
+        total *= span[k]
+    return total
+
+
+@njit(cache=True, inline="always")
+def image_vector(code, d, box, lo, span, out):
+    """Write d + n L of image ``code`` of :func:`image_span` to ``out``; returns (|d + n L|^2, n == 0)."""
+    r2 = 0.0
+    zero = True
+    for k in range(d.shape[0]):
+        nk = lo[k] + code % span[k]
+        code //= span[k]
+        zero = zero and nk == 0
+        out[k] = d[k] + nk * box
+        r2 += out[k] * out[k]
+    return r2, zero
+
+
+@njit(cache=True)
+def _extra_images_kernel(positions, diameters, box, scale, big, is_big, count_only, out_i, out_j, out_d):
+    """The images other than the minimum one of the pairs i < j with |x_j + n L - x_i| < scale * D_ij, for the
+    pairs with a sphere in ``big`` (only those can have one). Returns their number."""
+    n, dim = positions.shape
+    d = np.empty(dim)
+    e = np.empty(dim)
+    lo = np.empty(dim, dtype=np.int64)
+    span = np.empty(dim, dtype=np.int64)
+    count = 0
+    for a in range(big.shape[0]):
+        i0 = big[a]
+        for j0 in range(n):
+            if j0 == i0 or (is_big[j0] and j0 < i0):
+                continue  # a pair of two big spheres is visited from its lower index
+            i = min(i0, j0)
+            j = max(i0, j0)
+            cut = scale * 0.5 * (diameters[i] + diameters[j])
+            for k in range(dim):
+                d[k] = minimum_image(positions[j, k] - positions[i, k], box)
+            for code in range(image_span(d, cut, box, lo, span)):
+                r2, zero = image_vector(code, d, box, lo, span, e)
+                if zero or not r2 < cut * cut:
+                    continue
+                if not count_only:
+                    out_d[count, :] = e
+                    out_i[count] = i
+                    out_j[count] = j
+                count += 1
+    return count
+
+
+def pair_images(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.0):
+    """Every periodic image of every pair i < j with |x_j + n L - x_i| < scale * D_ij: ``(i, j, d)``, d the (K, d)
+    vectors x_j + n L - x_i, sorted by (i, j, |d|).
+
+    A pair appears once per image within reach, so in a box smaller than two contact distances (small N or a wide
+    size ratio) it may appear several times; otherwise this is :func:`pairs_within` with minimum-image vectors.
+    A sphere's own images are left out (a sphere wider than L overlaps itself: :meth:`Packing.check`).
+    """
+    positions = np.ascontiguousarray(positions, dtype=np.float64)
+    diameters = np.ascontiguousarray(diameters, dtype=np.float64)
+    box = float(box)
+    i, j, _ = pairs_within(positions, diameters, box, scale)
+    d = positions[j] - positions[i]
+    d -= box * np.floor(d / box + 0.5)
+    # an image other than the minimum one lies >= L/2 away along some axis, so only a pair with scale D_ij >= L/2
+    # has one: its larger sphere has D >= L / (2 scale) and D >= L / scale - D_max
+    threshold = max(0.5 * box / scale, box / scale - float(diameters.max()))
+    is_big = diameters >= threshold
+    big = np.flatnonzero(is_big)
+    if len(big):
+        args = (positions, diameters, box, float(scale), big.astype(np.int64), is_big)
+        count = _extra_images_kernel(*args, True, np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 1)))
+        ei, ej, ed = np.empty(count, np.int64), np.empty(count, np.int64), np.empty((count, positions.shape[1]))
+        _extra_images_kernel(*args, False, ei, ej, ed)
+        i, j, d = np.concatenate([i, ei]), np.concatenate([j, ej]), np.concatenate([d, ed])
+        key = np.lexsort((np.einsum("ij,ij->i", d, d), j, i))
+        i, j, d = i[key], j[key], d[key]
+    return i, j, d
 
 
 def brute_force_pairs(positions: np.ndarray, diameters: np.ndarray, box: float, scale: float = 1.0):

@@ -143,8 +143,13 @@ class Packing:
         return neighbours.pairs_within(self.positions, self.diameters, self.box, scale)
 
     def check(self, tolerance: float = DEFAULT_OVERLAP_TOLERANCE) -> OverlapReport:
-        """Report the worst overlap 1 - r_ij/D_ij over all pairs; pairs beyond ``tolerance`` count as failures."""
+        """Report the worst overlap 1 - r_ij/D_ij over all pairs, in any box (the closest image of a pair is its
+        minimum image; a sphere wider than L overlaps its own image); pairs beyond ``tolerance`` count as failures."""
         i, j, r = self.pairs_within(1.0 + 1e-9)  # include exactly touching pairs in the report
+        # a sphere as wide as the box touches its own image (r = L) in any box; pairs_within leaves those out
+        own = np.flatnonzero(self.diameters * (1.0 + 1e-9) > self.box)
+        i, j = np.concatenate([i, own]), np.concatenate([j, own])
+        r = np.concatenate([r, np.full(len(own), self.box)])
         if len(r) == 0:
             return OverlapReport(worst_overlap=-math.inf, pair=None, n_overlaps=0, tolerance=tolerance)
         overlap = 1.0 - r / (0.5 * (self.diameters[i] + self.diameters[j]))

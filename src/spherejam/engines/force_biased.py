@@ -150,6 +150,8 @@ class FBRun(Stepper):
         self.label = f"fb N={packing.n} rate={rate:g}"
         self.forces = np.zeros_like(packing.positions)
         self.dx = np.empty(self.dim)
+        # an outer sphere reaches an image other than the minimum one only if rho_out D_ij > L/2 (rho_out shrinks)
+        self.multi = bool(self.rho_out0 * float(self.nominal.max()) > 0.5 * self.box)
 
     def _history(self, columns=None, stride=1) -> History:
         return History(columns, step="iteration", max_rows=MAX_HISTORY_ROWS, stride=stride)
@@ -163,10 +165,13 @@ class FBRun(Stepper):
         """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
         nb, positions, nominal, box = self.nb, self.positions, self.nominal, self.box
         nb.refresh(positions, nominal, box, self.rho_out)
-        h = kernels.forces(positions, nominal, box, self.rho_out, nb.start, nb.list, self.forces, self.dx)
+        h = kernels.forces(positions, nominal, box, self.rho_out, nb.start, nb.list, self.forces, self.dx,
+                           self.multi)
         if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
             i, j, _ = neighbours.closest_pair(positions, nominal, box)
             h = kernels.pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in kernels.forces
+        if self.multi:  # nor may a sphere overlap its own image (the forces of its own images cancel)
+            h = min(h, box / float(nominal.max()))
         if not math.isfinite(h) or not np.all(np.isfinite(self.forces)):
             raise SimulationError(f"FB iteration {self.iteration}: non-finite forces or inner ratio ({h!r})")
         return h

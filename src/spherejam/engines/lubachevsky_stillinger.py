@@ -48,6 +48,9 @@ DEFAULT_TEMPERATURE = 0.2
 #: Relative overlap that makes a window audit (or the final audit) fail.
 AUDIT_TOLERANCE = 1e-10
 CHECKPOINT_KIND_LS = "ls"
+#: Largest Verlet skin, in box lengths, when pairs meet through several images: a pair then reaches at most the
+#: images one box length from its minimum image (list cutoff <= L + 2 skin < 1.5 L).
+MULTI_IMAGE_MAX_SKIN = 0.2
 
 
 @dataclass
@@ -64,6 +67,7 @@ class WindowStats:
     null_collisions: int
     list_rebuilds: int
     reached_target: bool
+    self_contact: bool = False  #: the largest sphere touched its own image (rho reached rho_limit)
 
 
 def _aligned_zeros(shape, dtype=np.float64) -> np.ndarray:
@@ -110,10 +114,13 @@ class LSEngine:
         Lists are built for diameters up to (1 + list_margin) times the current ones while compressing.
     dilute_neighbours : float
         In dilute states the list radius is widened so that about this many centres fall inside it.
+    all_images : bool
+        Predict collisions through every periodic image even where the minimum image suffices (a list cutoff
+        below L/2): the slower path of small boxes, for tests.
     """
 
     def __init__(self, positions, nominal, box, rho, velocities, gamma, temperature=DEFAULT_TEMPERATURE, *,
-                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0):
+                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0, all_images=False):
         positions = np.asarray(positions, dtype=np.float64)
         n = positions.shape[0]
         self.n = n
@@ -128,6 +135,7 @@ class LSEngine:
         self.skin_fraction = float(skin_fraction)
         self.list_margin = float(list_margin)
         self.dilute_neighbours = float(dilute_neighbours)
+        self.all_images = bool(all_images)
         self.allocate_events()
         self.list_rebuilds = 0
         self.perm = np.arange(n)  # internal index -> input index (particles are renumbered in cell order)
@@ -145,26 +153,32 @@ class LSEngine:
         self.heap = np.zeros(n, dtype=np.int32)
         self.hpos = np.zeros(n, dtype=np.int32)
         self.hkey = np.zeros(n)
+
+    @property
+    def rho_limit(self) -> float:
+        """The scale factor at which the largest sphere touches its own periodic image (diameter L): no sphere can
+        grow beyond it."""
+        return self.box / float(self.st[:, 7].max())
+
     def rebuild_lists(self, t: float) -> None:
         """Rebuild all Verlet lists at time t (every particle must be synchronised to t)."""
         n, box = self.n, self.box
         nominal = self.st[:, 7]
         rho = self.rho0 + self.gamma * t
         dmean, dmax = float(nominal.mean()), float(nominal.max())
-        limit = 0.45 * box  # every list cutoff must stay below L/2 for the single-fold minimum image
-        if rho * dmax >= 0.9 * limit:
-            raise SimulationError(
-                f"box L={box:.6g} is too small for the largest sphere (diameter {rho * dmax:.6g}): the minimum "
-                "image convention needs L > ~2.5 diameters (too few spheres?)"
-            )
         margin = self.list_margin if self.gamma > 0 else 0.0
-        rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
-        if self.gamma > 0 and not rho_list > rho:
-            raise SimulationError("no room to grow the neighbour lists (box too small)")
         spacing = (box**3 / n) ** (1.0 / 3.0)
         r_dilute = spacing * (3.0 * self.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
-        skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
-        skin = min(skin, limit - rho_list * dmax)
+        limit = 0.45 * box  # single image: every list cutoff stays below L/2
+        self.multi = self.all_images or not rho * dmax < 0.9 * limit
+        if not self.multi:
+            rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
+            skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
+            skin = min(skin, limit - rho_list * dmax)
+        else:  # pairs may meet through several images (docs/algorithms.md, "Any box, any size ratio")
+            rho_list = min(rho * (1.0 + margin), self.rho_limit)
+            skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
+            skin = min(skin, MULTI_IMAGE_MAX_SKIN * box)  # images one box away suffice (ed.image_collision)
         m = cells_per_side(box, rho_list * dmax + skin, 3, n)
         self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]
@@ -237,21 +251,24 @@ class LSEngine:
         acc = np.zeros(1)
         rebuilds0 = self.list_rebuilds
         need_init = True
-        reached = False
+        reached = self_contact = False
         if not np.all(self.st[:, 6] == 0.0):
             raise SimulationError("window started with unsynchronised particles")
         while True:
             g = self.gamma
             t_list = (self.rho_list - self.rho0) / g if g > 0 else math.inf
             t_target = (rho_target - self.rho0) / g if (rho_target is not None and g > 0) else math.inf
-            horizon = min(t_list, t_target)
+            t_limit = max((self.rho_limit - self.rho0) / g, 0.0) if g > 0 else math.inf
+            horizon = min(t_list, t_target, t_limit)
             if need_init:
                 ed.init_events(t, self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap,
-                               self.hpos, self.hkey, self.nbr, self.nnb, self.box, self.rho0, g, self.skin)
+                               self.hpos, self.hkey, self.nbr, self.nnb, self.box, self.rho0, g, self.skin,
+                               self.rho_list, self.multi)
             status, t = ed.run_events(
                 self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.hkey,
                 self.nbr, self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m,
-                self.rho0, g, self.rho_list, self.skin, t, target, count_collisions, horizon, counters, acc,
+                self.rho0, g, self.rho_list, self.skin, self.multi, t, target, count_collisions, horizon, counters,
+                acc,
             )
             if status == ed.WINDOW_DONE:
                 break
@@ -259,6 +276,9 @@ class LSEngine:
                 self._enlarge_lists()
                 need_init = False
             elif status == ed.HORIZON:
+                if t >= t_limit:
+                    self_contact = True
+                    break
                 if t >= t_target:
                     reached = True
                     break
@@ -269,14 +289,14 @@ class LSEngine:
         e = self.kinetic_energy()
         if not (math.isfinite(e) and e > 0):
             raise SimulationError(f"kinetic energy {e!r} after a window")
-        if not t > 0 and not reached:
+        if not t > 0 and not (reached or self_contact):
             # 20 N events in zero time are a stuck event loop, not an infinite pressure (docs/algorithms.md,
             # "Rattlers the thermostat has slowed")
             raise SimulationError(f"{int(counters[ed.C_EVENTS])} events took no time: the event loop is stuck")
         pressure = 1.0 + abs(acc[0]) / (2.0 * e * t) if t > 0 else math.inf
         temperature = 2.0 * e / (3.0 * self.n)
         self.thermalise()
-        self.rho0 = self.rho0 + self.gamma * t
+        self.rho0 = min(self.rho0 + self.gamma * t, self.rho_limit) if self_contact else self.rho0 + self.gamma * t
         self.st[:, 6] = 0.0
         h = ed.min_listed_ratio(self.st, self.nbr, self.nnb, self.box, self.rho0)
         if h < 1.0 - AUDIT_TOLERANCE:
@@ -285,7 +305,7 @@ class LSEngine:
             duration=t, pressure=pressure, temperature=temperature, collisions=int(counters[ed.C_COLLISIONS]),
             events=int(counters[ed.C_EVENTS]), skin_events=int(counters[ed.C_SKIN]),
             moves=int(counters[ed.C_MOVES]), null_collisions=int(counters[ed.C_NULL]),
-            list_rebuilds=self.list_rebuilds - rebuilds0, reached_target=reached,
+            list_rebuilds=self.list_rebuilds - rebuilds0, reached_target=reached, self_contact=self_contact,
         )
 
     # --- checkpoint state -----------------------------------------------------------------------------------
@@ -293,7 +313,7 @@ class LSEngine:
 
     def state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         arrays = {f"engine_{k}": getattr(self, k) for k in self._ARRAYS}
-        attrs = {k: getattr(self, k) for k in ("rho0", "gamma", "rho_list", "skin", "m", "list_rebuilds")}
+        attrs = {k: getattr(self, k) for k in ("rho0", "gamma", "rho_list", "skin", "m", "list_rebuilds", "multi")}
         return arrays, attrs
 
     def load_state(self, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> None:
@@ -302,6 +322,7 @@ class LSEngine:
         self.rho0, self.gamma = float(attrs["rho0"]), float(attrs["gamma"])
         self.rho_list, self.skin = float(attrs["rho_list"]), float(attrs["skin"])
         self.m, self.list_rebuilds = int(attrs["m"]), int(attrs["list_rebuilds"])
+        self.multi = bool(attrs.get("multi", False))  # checkpoints from before multi-image lists are single-image
         self.scratch = np.zeros((1, max(self.nbr.shape[1], 64)), dtype=np.int32)
 
 
@@ -402,6 +423,7 @@ class WindowRun(Stepper):
     # --- Stepper ---------------------------------------------------------------------------------------------
     def start(self, wall_time) -> None:
         rho = closest_pair(self.input.positions, self.nominal, self.input.box)[2]
+        rho = min(rho, self.input.box / float(self.nominal.max()))  # nor may a sphere overlap its own image
         velocities = maxwell_velocities(self.input.n, self.temperature, self.rng)
         self.engine = LSEngine(self.input.positions, self.nominal, self.input.box, rho, velocities,
                                self.controller.rate, self.temperature, **(self.engine_options or {}))
@@ -437,7 +459,7 @@ class WindowRun(Stepper):
         self.history.append(window=self.totals["windows"], phi=self.phi, pressure=stats.pressure, rate=rate,
                             collisions=stats.collisions, events=stats.events, duration=stats.duration,
                             temperature=stats.temperature, wall_time=wall_time(), **self.controller.extra_row())
-        stop = self.controller.after_window(stats)
+        stop = "self_contact" if stats.self_contact else self.controller.after_window(stats)
         if stop is None and stats.reached_target:
             stop = "target_phi"
         if stop is None and self.max_collisions is not None and self.totals["collisions"] >= self.max_collisions:
@@ -504,12 +526,13 @@ def run_windows(packing: Packing, controller: Controller, options: RunOptions, *
 
 
 def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options: dict[str, Any] | None) -> None:
-    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0}
+    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0, "all_images": False}
     opts.update(options or {})
     engine.n, engine.box, engine.temperature = n, float(box), float(temperature)
     engine.skin_fraction = float(opts["skin_fraction"])
     engine.list_margin = float(opts["list_margin"])
     engine.dilute_neighbours = float(opts["dilute_neighbours"])
+    engine.all_images = bool(opts["all_images"])
     engine.allocate_events()
 
 
@@ -550,8 +573,8 @@ def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0,
     callback : callable(window_index, WindowStats) or None
         Called after every window (e.g. for monitoring; an exception aborts the run, keeping the checkpoint).
     engine_options : dict or None
-        Tuning of the neighbour lists (``skin_fraction``, ``list_margin``, ``dilute_neighbours``); no effect on
-        the physics.
+        Tuning of the neighbour lists (``skin_fraction``, ``list_margin``, ``dilute_neighbours``, ``all_images``);
+        no effect on the physics.
 
     Returns
     -------

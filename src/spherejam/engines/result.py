@@ -28,6 +28,7 @@ STOP_REASONS: dict[str, str] = {
     "final_rate": "MLS: p >= p_max while compressing at a rate <= the final rate",
     "final_rate_stalled": "MLS: as final_rate, but the stage ended by the pressure-stall rule",
     "jammed": "MLS: p stayed >= p_max for max_equilibration_windows zero-rate windows",
+    "self_contact": "LS/MLS: the largest sphere touched its own periodic image (diameter L): nothing can grow",
     "converged": "FB: the outer diameters shrank onto the inner ones (rho_out <= rho_in)",
     "max_collisions": "LS/MLS budget: the collisions in all reached max_collisions",
     "max_iterations": "FB budget: the iterations in all reached max_iterations",

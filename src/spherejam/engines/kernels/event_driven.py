@@ -22,8 +22,10 @@ Neighbour lists (exact at every density)
     skin sphere is a per-particle event (a local, symmetric list update through a linked-cell grid, no global sweep);
     reaching rho_list ends a kernel call (``HORIZON``) so the caller rebuilds all lists. Both the skin and rho_list
     are set from the *actual* diameters, so growth from phi ~ 1e-5 to jamming stays exact and O(N) per sweep.
-    Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold is always
-    the minimum image (every list cutoff is < L/2).
+    Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold gives the
+    minimum image. A pair is listed once, by its minimum image; in a box smaller than two list cutoffs (``multi``:
+    small N, or a sphere wider than ~L/2.5) the prediction also tries the images one box length away, and a
+    collision is resolved on the image that was predicted (docs/algorithms.md, "Any box, any size ratio").
 
 Speed (the hot loop is a prediction over ~10 neighbours)
     Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
@@ -228,6 +230,38 @@ def skin_exit_delay(dx, dy, dz, vx, vy, vz, h):
     return num / den
 
 
+#: Image codes: the image r + (a, b, c) L of a pair is code (a + 1) + 3 (b + 1) + 9 (c + 1), a, b, c in -1..1;
+#: the minimum image is MINIMUM_IMAGE, and the pair seen from its other sphere has code 26 - code.
+MINIMUM_IMAGE = 13
+
+
+@njit(cache=True, inline="always")
+def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, box, reach, skip):
+    """``(tau, code)``: :func:`collision_delay` minimised over the periodic images r + (a, b, c) L, a, b, c in
+    -1..1, of a pair whose minimum image is r, taking only images within ``reach`` along every axis and not image
+    ``skip`` (the image that has just collided; -1: none). For boxes smaller than two list cutoffs."""
+    best = _INF
+    best_code = MINIMUM_IMAGE
+    for a in range(-1, 2):
+        x = rx + a * box
+        if abs(x) >= reach:
+            continue
+        for b in range(-1, 2):
+            y = ry + b * box
+            if abs(y) >= reach:
+                continue
+            for c in range(-1, 2):
+                z = rz + c * box
+                code = (a + 1) + 3 * (b + 1) + 9 * (c + 1)
+                if abs(z) >= reach or code == skip:
+                    continue
+                tau = collision_delay(x, y, z, ux, uy, uz, sig, rho, gamma)
+                if tau < best:
+                    best = tau
+                    best_code = code
+    return best, best_code
+
+
 @njit(cache=True)
 def sync_all(st, t):
     """Advance every particle to time t (positions only)."""
@@ -391,11 +425,39 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 
 @njit(cache=True, inline="always")
-def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
-             update_heap):
+def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
+                    ev_time, nbr, nnb, box, gamma, skin, rho_list):
+    """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
+    within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
+    within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
+    half = 0.5 * box
+    di = st[i, 7]
+    for kk in range(nnb[i]):
+        j = nbr[i, kk]
+        dtj = t - st[j, 6]
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
+        sig = 0.5 * (di + st[j, 7])
+        tau, _ = image_collision(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi, sig, rho, gamma, box,
+                                 rho_list * sig + 2.0 * skin, exclude_image if j == exclude else -1)
+        tc = t + tau
+        if tc < best and tc <= ev_time[j]:
+            best = tc
+            best_type = COLLISION
+            best_j = j
+    return best, best_type, best_j
+
+
+@njit(cache=True, inline="always")
+def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
+             rho0, gamma, skin, rho_list, multi, update_heap):
     """Schedule particle i's next event at time t (its own current event is released first).
 
-    Inlined into its callers: a call would pass some 100 words of array descriptors per prediction.
+    ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
+    images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
+    collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
+    some 100 words of array descriptors per prediction.
     """
     n = st.shape[0]
     half = 0.5 * box
@@ -419,7 +481,11 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
     best_j = -1
     for kk in range(nnb[i]):
         _prefetch_row(st, nbr[i, kk])
-    for kk in range(nnb[i]):
+    if multi:  # outside the loop: the single-image loop below stays as tight as it was
+        best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
+                                                  best_type, best_j, st, ev_time, nbr, nnb, box, gamma, skin,
+                                                  rho_list)
+    for kk in range(0 if multi else nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
             continue
@@ -467,7 +533,8 @@ def _predict(i, exclude, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, 
 
 
 @njit(cache=True)
-def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin):
+def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
+                rho_list, multi):
     """Predict every particle's event from scratch (all synchronised at t) and build the heap."""
     n = st.shape[0]
     for i in range(n):
@@ -475,15 +542,15 @@ def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr
         ev_type[i] = MOVE
         ev_partner[i] = -1
     for i in range(n):
-        _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                 nbr, nnb, box, rho0, gamma, skin, False)
+        _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                 nbr, nnb, box, rho0, gamma, skin, rho_list, multi, False)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
 @njit(cache=True)
 def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
-               rho0, gamma, rho_list, skin, t, target, count_collisions, t_horizon, counters, acc):
+               rho0, gamma, rho_list, skin, multi, t, target, count_collisions, t_horizon, counters, acc):
     """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
 
     ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
@@ -508,8 +575,8 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                                 coords, shift, cells):
                 return OVERFLOW, t
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -521,6 +588,16 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
             rx = fold(st[j, 0] - st[i, 0], box, half)
             ry = fold(st[j, 1] - st[i, 1], box, half)
             rz = fold(st[j, 2] - st[i, 2], box, half)
+            image = MINIMUM_IMAGE
+            if multi:
+                # the image that collides now (delay ~0); near jamming several images touch to round-off, so the
+                # minimum image may be another one
+                sig = 0.5 * (st[i, 7] + st[j, 7])
+                _, image = image_collision(rx, ry, rz, st[j, 3] - st[i, 3], st[j, 4] - st[i, 4], st[j, 5] - st[i, 5],
+                                           sig, rho0 + gamma * t, gamma, box, 2.0 * sig * (rho0 + gamma * t), -1)
+                rx += (image % 3 - 1) * box
+                ry += (image // 3 % 3 - 1) * box
+                rz += (image // 9 - 1) * box
             r = np.sqrt(rx * rx + ry * ry + rz * rz)
             nx = rx / r
             ny = ry / r
@@ -542,14 +619,14 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _predict(i, j, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, True)
-            _predict(j, i, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+            _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
         else:
             t = te
-            _predict(i, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, True)
+            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list

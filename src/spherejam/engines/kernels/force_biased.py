@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...core.neighbours import cell_sort, fold, stencil_cell, stencil_size, unravel_cell
+from ...core.neighbours import cell_sort, fold, image_span, image_vector, stencil_cell, stencil_size, unravel_cell
 
 
 @njit(cache=True, inline="always")
@@ -111,8 +111,12 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
 
 
 @njit(cache=True)
-def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
-    """Bezrukov forces of the pairs whose outer spheres overlap; returns min r_ij / D_ij over the list."""
+def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx, multi):
+    """Bezrukov forces of the pairs whose outer spheres overlap; returns min r_ij / D_ij over the list.
+
+    ``multi``: an outer sphere may reach several images of a listed neighbour (rho_out D_ij > L/2); each adds its
+    force (the minimum image is the closest, so the returned minimum is unchanged).
+    """
     n, dim = positions.shape
     half = 0.5 * box
     forces[:, :] = 0.0
@@ -134,7 +138,27 @@ def forces(positions, diameters, box, rho_out, nbr_start, nbr, forces, dx):
                 for a in range(dim):
                     forces[i, a] += f * dx[a]
                     forces[j, a] -= f * dx[a]
+            if multi:
+                _image_forces(i, j, di * diameters[j], dij, rho2, box, dx, forces)
     return np.sqrt(hmin2)
+
+
+@njit(cache=True, inline="always")
+def _image_forces(i, j, dd, dij, rho2, box, dx, forces):
+    """Add the forces of the images of j other than the minimum one (x_i - x_j = ``dx``) within rho_out D_ij."""
+    dim = dx.shape[0]
+    lo = np.empty(dim, dtype=np.int64)
+    span = np.empty(dim, dtype=np.int64)
+    e = np.empty(dim)
+    for code in range(image_span(dx, np.sqrt(rho2) * dij, box, lo, span)):
+        r2, zero = image_vector(code, dx, box, lo, span, e)
+        h2 = r2 / (dij * dij)
+        if zero or not h2 < rho2:
+            continue
+        f = dd * (1.0 - h2 / rho2) / np.sqrt(r2)
+        for a in range(dim):
+            forces[i, a] += f * e[a]
+            forces[j, a] -= f * e[a]
 
 
 @njit(cache=True)
