@@ -77,5 +77,5 @@ def test_psd_command_json(capsys):
 
 
 def test_psd_command_warns_about_box(capsys):
-    assert main(["psd", "bidisperse:ratio=4,small=0.3,by=volume", "--n", "100"]) == 0
-    assert "below the LS/MLS engines' limit L > 2.5 d_max" in capsys.readouterr().out
+    assert main(["psd", "bidisperse:ratio=4,small=0.3,by=volume", "--n", "40"]) == 0
+    assert "below CALiPPSO's limit L > 2 d_max" in capsys.readouterr().out

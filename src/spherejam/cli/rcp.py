@@ -153,7 +153,7 @@ def failed_jobs(log: Path) -> list[str]:
 
 
 def _warn_box(exp) -> None:
-    """Warn about distributions whose largest sphere (in a sample of N) leaves the box below the engines' limit."""
+    """Warn about distributions whose largest sphere (in a sample of N) leaves the box below CALiPPSO's limit."""
     from ..core.seeding import rng_for
     from .psd import BOX_LIMIT, box_side
 
@@ -165,8 +165,8 @@ def _warn_box(exp) -> None:
         bounded = math.isfinite(model.descriptors().size_ratio)
         ratio = min(box_side(x) / (d_max if bounded else float(x.max())) for x in samples)
         if ratio <= BOX_LIMIT:
-            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; the LS/MLS "
-                  f"engines need L > {BOX_LIMIT:g} d_max and will stop with 'box too small' (raise --n)", flush=True)
+            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; CALiPPSO "
+                  f"needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise --n)", flush=True)
 
 
 def _interval(value: float, half: float, n: str) -> str:
