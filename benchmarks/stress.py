@@ -16,9 +16,13 @@ Each run ends as one of
   skipped   an MLS whose LS start was not produced;
   error     anything else (a bug).
 
+Other size distributions join the sigma axis as spec strings (``--psd bidisperse:ratio=10,small=0.3,by=volume``,
+docs/psd.md); ``--sigmas`` with no value leaves the log-normals out.
+
 The full grid takes days on one core; pick a subset:
 
     nice python benchmarks/stress.py --n 100 --sigmas 0 0.1 --seeds 3 --ls-rates 10 1 --fb-rates 0.1 0.01
+    python benchmarks/stress.py --n 2 10 50 --sigmas --psd bidisperse:ratio=10,small=0.3,by=volume --seeds 5
     python benchmarks/stress.py                     # everything (long)
     python benchmarks/stress.py --json stress.json  # also write the per-run records
 """
@@ -62,23 +66,28 @@ def brute_force_overlaps(positions: np.ndarray, diameters: np.ndarray, box: floa
     return count, worst
 
 
-def run_one(protocol: str, n: int, sigma: float, rate: float, seed: int, cache: dict) -> dict:
-    record = {"protocol": protocol, "n": n, "sigma": sigma, "rate": rate, "seed": seed}
+def start(n: int, psd: str, seed: int):
+    """The Poisson start of one case: ``psd`` a size-distribution spec (a log-normal sigma is ``lognormal:sigma=s``)."""
+    return poisson_packing(n, seed=seed, psd=psd)
+
+
+def run_one(protocol: str, n: int, psd: str, rate: float, seed: int, cache: dict) -> dict:
+    record = {"protocol": protocol, "n": n, "psd": psd, "rate": rate, "seed": seed}
     t0 = time.perf_counter()
     try:
         if protocol == "ls":
-            result = run_ls(poisson_packing(n, sigma, seed), rate, seed=seed, progress_interval=1e9)
+            result = run_ls(start(n, psd, seed), rate, seed=seed, progress_interval=1e9)
             packing = result.packing
-            cache[(n, sigma, rate, seed)] = packing
+            cache[(n, psd, rate, seed)] = packing
         elif protocol == "fb":
-            result = run_fb(poisson_packing(n, sigma, seed), rate, progress_interval=1e9)
+            result = run_fb(start(n, psd, seed), rate, progress_interval=1e9)
             packing = result.packing
         else:  # a short MLS from the LS output of the same case
-            start = cache.get((n, sigma, rate, seed))
-            if start is None:
+            ls_output = cache.get((n, psd, rate, seed))
+            if ls_output is None:
                 record.update(outcome="skipped", reason="no LS output to start from")
                 return record
-            result = find_closest_jamming(start, initial_rate=10.0, decrease_factor=2.0, final_rate=1e-2,
+            result = find_closest_jamming(ls_output, initial_rate=10.0, decrease_factor=2.0, final_rate=1e-2,
                                           seed=seed, progress_interval=1e9)
             packing = result.packing
         count, worst = brute_force_overlaps(packing.positions, packing.diameters, packing.box)
@@ -96,7 +105,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--protocols", nargs="+", default=["ls", "fb", "mls"], choices=["ls", "fb", "mls"])
     ap.add_argument("--n", nargs="+", type=int, default=[100, 1000, 10000])
-    ap.add_argument("--sigmas", nargs="+", type=float, default=[0.0, 0.1, 0.3, 0.5])
+    ap.add_argument("--sigmas", nargs="*", type=float, default=[0.0, 0.1, 0.3, 0.5],
+                    help="log-normal sigmas (none: only the --psd distributions)")
+    ap.add_argument("--psd", nargs="+", default=[], help="more size distributions, as spec strings (docs/psd.md)")
     ap.add_argument("--ls-rates", nargs="+", type=float, default=[10.0, 1.0, 1e-2, 1e-4],
                     help="LS (and MLS start) rates; 1e-4 and below only at N <= --small-n")
     ap.add_argument("--fb-rates", nargs="+", type=float, default=[1e-1, 1e-2, 1e-4],
@@ -111,24 +122,25 @@ def main(argv=None) -> int:
     print(f"FB rates 10 and 1 refused as bad input: {len(refused_fb)} of 2")
 
     records, cache = [], {}
+    distributions = [f"lognormal:sigma={s:g}" for s in args.sigmas] + list(args.psd)
     for n in args.n:
         seeds = range(args.seeds if n <= args.small_n else 1)
-        for sigma in args.sigmas:
+        for psd in distributions:
             for protocol in args.protocols:
                 rates = args.fb_rates if protocol == "fb" else args.ls_rates
                 for rate in rates:
                     if rate <= 1e-4 and n > args.small_n:
                         continue
                     for seed in seeds:
-                        rec = run_one(protocol, n, sigma, rate, seed, cache)
+                        rec = run_one(protocol, n, psd, rate, seed, cache)
                         records.append(rec)
                         if rec["outcome"] in ("overlap", "error"):
-                            print(f"  {rec['outcome'].upper()}: {protocol} N={n} sigma={sigma} gamma={rate:g} "
+                            print(f"  {rec['outcome'].upper()}: {protocol} N={n} {psd} gamma={rate:g} "
                                   f"seed={seed}: {rec.get('reason', rec.get('overlaps'))}", flush=True)
-                done = [r for r in records if (r["n"], r["sigma"], r["protocol"]) == (n, sigma, protocol)]
+                done = [r for r in records if (r["n"], r["psd"], r["protocol"]) == (n, psd, protocol)]
                 c = Counter(r["outcome"] for r in done)
                 worst = max((r.get("worst_overlap", -np.inf) for r in done), default=-np.inf)
-                print(f"{protocol:3s} N={n:<6d} sigma={sigma:<4g} runs={len(done):4d} ok={c['ok']:4d} "
+                print(f"{protocol:3s} N={n:<6d} {psd:<40s} runs={len(done):4d} ok={c['ok']:4d} "
                       f"overlaps>1e-10={c['overlap']:3d} refused={c['refused']:3d} self_contact={c['self']:3d} "
                       f"errors={c['error']:3d} skipped={c['skipped']:3d} worst 1-r/D={worst:.2e} "
                       f"wall={sum(r['wall_time'] for r in done if 'wall_time' in r):.0f}s", flush=True)
