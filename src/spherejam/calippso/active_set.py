@@ -10,7 +10,9 @@ import time
 
 import numpy as np
 
+from ..core.rattlers import rattler_mask
 from .constraints import constraint_rows
+from .highs import highs_model
 from .solution import LPSolution
 
 
@@ -33,8 +35,6 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score
     are the predicted vertex, for :func:`solve_active_set` to certify.
     """
-    from ..analysis.contacts import rattler_mask
-
     m = len(pi)
     score = duals * sigma2 * m / np.maximum(slack / sigma2, 1e-300)
     near = score > 1.0
@@ -133,8 +133,6 @@ def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin)
     """
     import highspy
     from scipy.sparse import csr_matrix
-
-    from .lp import highs_model  # lp imports this module
 
     n, dim = s.shape
     rows = np.flatnonzero(rattler[pi] | rattler[pj])
