@@ -314,6 +314,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
     # primal pivots optimise that relaxed LP, then the relaxation is removed and dual pivots (the duals are >= 0 by
     # then) restore those rows (a composite primal-dual simplex, docs §5.4)
     relax = np.zeros(rhs.size)
+    relaxed = bound_pivots = 0  # for the method string: how the vertex was reached
     for pivot in range(max_pivots + 1):
         b = rhs + relax
         u = binv.solve(b[basis])
@@ -331,6 +332,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
             if np.min(lam) < -zero:
                 bad = slack < -feasibility
                 relax[bad] -= 2.0 * slack[bad]  # the row then has slack |violation| > 0, not a degenerate block
+                relaxed += int(np.count_nonzero(bad))
                 slack[bad] = -slack[bad]
         if slack[r] < -feasibility and not np.any(relax):
             if pivot == max_pivots:
@@ -344,6 +346,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
             k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
             try:
                 binv.replace(k, r)
+                bound_pivots += r >= m_pair
             except RuntimeError:
                 return _fail(why, f"singular contact system after {pivot + 1} pivots")
             continue
@@ -375,6 +378,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         j = int(np.argmin(ratios))  # ties: the lowest row index (blocking is sorted), as Bland's rule wants
         try:
             binv.replace(k, blocking[j], column=-d)
+            bound_pivots += blocking[j] >= m_pair
         except RuntimeError:
             return _fail(why, f"singular contact system after {pivot + 1} pivots")
     else:
@@ -424,4 +428,6 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         return _fail(why, "a row or an s bound is violated at the vertex")
     duals = np.zeros(len(pi))
     duals[stable_rows[basis[pair]]] = np.maximum(lam[pair], 0.0)
-    return LPSolution(s, inflation, duals, time.perf_counter() - t0, f"active-set+{pivot}")
+    method = f"active-set+{pivot}" + (f"+{relaxed}relaxed" if relaxed else "") + (
+        f"+{bound_pivots}bounds" if bound_pivots else "")
+    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method)

@@ -305,7 +305,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             if problem is None:
                 vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
-                vertex.method = "vertex+" + vertex.method.split("+")[1]  # + its pivots
+                vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
                 return vertex
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
             continue
