@@ -11,7 +11,8 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][@max_lps]``: ``ipx+crossover`` is the old path (IPX interior point, HiGHS
+A path is ``solver[:threads][+crossover][-warm][@max_lps]`` (``auto``: run_calippso's default; ``-warm``: no warm
+starts, the path of every N >= 4096): ``ipx+crossover`` is the old path (IPX interior point, HiGHS
 crossover), ``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only
 as the fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is the reference: every other path
 must give the same contact network, the same rattlers and force balance <= 1e-10 (printed as "agree"). Times are
@@ -94,11 +95,15 @@ METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "v
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][@max_lps]`` -> run_calippso keyword arguments."""
+    """``solver[:threads][+crossover][-warm][@max_lps]`` -> run_calippso keyword arguments (``-warm``: no warm
+    starts, as from N = 4096 on)."""
     text, _, max_lps = text.partition("@")
+    kw = {}
+    if text.endswith("-warm"):
+        text, kw["warm_start"] = text.removesuffix("-warm"), False
     crossover = True if text.endswith("+crossover") else None  # None: run_calippso's pairing for the solver
     solver, _, threads = text.removesuffix("+crossover").partition(":")
-    kw = {"solver": solver, "threads": int(threads or 1), "crossover": crossover}
+    kw.update(solver=solver, threads=int(threads or 1), crossover=crossover)
     if max_lps:
         kw["max_iterations"] = int(max_lps)
     return kw

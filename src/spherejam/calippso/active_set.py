@@ -201,26 +201,28 @@ MAX_PROMOTIONS = 2
 def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
                      feasibility=1e-12, max_pivots=None, rattler_s=None, fixed=None,
                      why: list[str] | None = None) -> LPSolution | None:
-    """Solve the LP from a predicted active set by primal simplex pivots; None if that does not work out.
+    """Solve the LP from a predicted active set by simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
     ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
     non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
-    transpose, the duals. While a dual is negative, that contact is released along the edge that keeps the others
-    tight and the first pair row to close enters (the primal simplex method with the exact ratio test). A
-    prediction that violates other rows while its duals are >= 0 is first repaired by dual simplex pivots (the most
-    violated row enters, the dual ratio test picks the row that leaves). Every pivot updates the basis matrix's LU
-    (:class:`BasisInverse`). The vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one
-    is a contact without force, at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``,
-    absolute, sigma^2 units), i.e. primal and dual feasible with complementary slackness. Rattlers start from
-    ``rattler_s`` ((N, d), e.g. an interior point, whose rattlers sit inside their cages; default 0) and are pushed
-    out of rows they violate, or placed by a small LP when pushing does not settle them. ``fixed`` ((N, d) of -1 / 0
-    / +1) predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns
-    (one contact fewer each), and their bound multipliers must come out >= 0, else None (bounds never pivot).
-    Anything else -- a rattler joining the network, another active s or a Gamma bound, a singular system, more than
-    ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reason is appended to ``why``
-    (a list, if given), for the LP's failure log. Near convergence the active set barely changes, and this replaces
-    a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
+    transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
+    below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
+    others tight and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows
+    with duals >= 0 is repaired by dual simplex pivots (the most violated row enters, the dual ratio test picks the
+    one that leaves); beyond other rows with negative duals, those rows are relaxed until primal pivots have made the
+    duals >= 0, then restored by dual pivots. Every pivot updates the basis matrix's LU (:class:`BasisInverse`). The
+    vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one is a contact without force,
+    at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e.
+    primal and dual feasible with complementary slackness. Rattlers start from ``rattler_s`` ((N, d), e.g. an
+    interior point, whose rattlers sit inside their cages; default 0) and are pushed out of rows they violate, or
+    placed by a small LP when pushing does not settle them; rattlers that find no place join the network with their
+    d tightest rows and the solve starts again (:data:`MAX_PROMOTIONS` times). ``fixed`` ((N, d) of -1 / 0 / +1)
+    predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns (one
+    contact fewer each), and their bound multipliers must come out >= 0, else None. Anything else -- a singular
+    system, more than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reasons are
+    appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active set barely
+    changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
     """
     why = [] if why is None else why
     for promotion in range(MAX_PROMOTIONS + 1):

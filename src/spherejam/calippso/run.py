@@ -69,7 +69,9 @@ class CalippsoResult:
         diameter), ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cpu_time`` (CPU s of
         this process for the LP, incl. a failed active-set attempt: the figure to compare on a busy machine),
         ``cutoff`` and ``s_bound`` (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`),
-        ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``.
+        ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``,
+        ``contact_changes`` (contacts among non-rattlers gained or lost since the previous LP; -1 for the first),
+        ``bound_active`` (s components of non-rattlers at their bound).
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, docs §3).
     forces : (K,) float array
@@ -345,7 +347,8 @@ def run_calippso(
         iteration += 1
         lp_cpu = time.process_time() - cpu0
         tally.count(sol, lp_cpu)
-        contact, rattler, n_contacts, isostatic = _check(lp, sol, loop, cfg)
+        contact, rattler, n_contacts, isostatic, changes = _check(lp, sol, loop, cfg)
+        at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
         x, dia, sqrt_inflation, correction = _step(x, dia, sol, box, iteration)
         max_s, max_s_all = _largest_displacements(sol.s, rattler, dia)
         phi = _phi(dia, box, dim)
@@ -355,17 +358,18 @@ def run_calippso(
             cutoff=lp.ell / dia.max(), s_bound=lp.s_bound / dia.max(), regime=lp.regime,
             method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
             n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
+            contact_changes=changes, bound_active=at_bound,
         )
         progress.update(
             f"it {iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
             f"rows {len(lp.pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
-            f"LP {sol.solve_time:.2f} s ({sol.method}, {sol.solver})",
+            f"LP {sol.solve_time:.2f} s, CPU {lp_cpu:.2f} s ({sol.method}, {sol.solver})",
             fields={"LP": iteration, "√Γ-1": sqrt_inflation - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
         )
         if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
             _log.info("calippso it %d solved by %s after: %s", iteration, sol.method, sol.failed)
         last = (lp, sol, rattler)
-        _hand_over(loop, lp, sol, contact, rattler, sqrt_inflation)
+        _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation)
         if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             converged = True
             break
@@ -527,12 +531,15 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
 
 def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
     """Check: the contact network of the LP's duals (docs §3); an isostatic one predicts the next LP's vertex
-    (docs §5.4). Returns ``(contact mask, rattler mask, n_contacts, isostatic)``."""
+    (docs §5.4). Returns ``(contact mask, rattler mask, n_contacts, isostatic, contact changes)``, the last the
+    contacts among non-rattlers gained or lost since the previous LP (-1 for the first)."""
     contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.n,
                                                                  cfg.dim, cfg.zero_force)
-    loop.predicted = (network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
-                      if cfg.active_set and isostatic else None)
-    return contact, rattler, n_contacts, isostatic
+    network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
+    loop.predicted = network if cfg.active_set and isostatic else None
+    changes = -1 if loop.contacts is None else int(np.setxor1d(loop.contacts, network[0], assume_unique=True).size)
+    loop.contacts = network[0]
+    return contact, rattler, n_contacts, isostatic, changes
 
 
 def _step(x, dia, sol: LPSolution, box: float, iteration: int):
@@ -564,11 +571,10 @@ def _largest_displacements(s, rattler, dia) -> tuple[float, float]:
             float(np.max(np.abs(s))) / float(dia.max()))
 
 
-def _hand_over(loop, lp: _LP, sol: LPSolution, contact, rattler, sqrt_inflation: float) -> None:
+def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: float) -> None:
     """What the next iteration's schedule needs from this one: a stable particle at its bound (docs §1.5), the
     bound, sqrt(Gamma), and the pinned particle (docs §1.7)."""
-    loop.bound_hit = (bool(np.any(~rattler))
-                      and float(np.max(np.abs(sol.s[~rattler]))) >= (1.0 - 1e-9) * lp.s_bound)
+    loop.bound_hit = at_bound > 0
     loop.prev_s_bound = lp.s_bound
     loop.sqrt_inflation_prev = sqrt_inflation
     if rattler[loop.pinned] and np.any(~rattler):
@@ -629,6 +635,7 @@ class _LoopState:
     basis: LPBasis | None = None  # HiGHS basis of the last HiGHS-solved LP, the next one's warm start
     warm_failures: int = 0  # failed warm starts in a row
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
+    contacts: np.ndarray | None = None  # contact keys among non-rattlers of the last LP (history's contact_changes)
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
@@ -636,6 +643,8 @@ class _LoopState:
             out.update(predicted_keys=self.predicted[0], predicted_rattlers=self.predicted[1])
         if self.basis is not None:
             out.update(basis_keys=self.basis.keys, basis_rows=self.basis.rows, basis_cols=self.basis.cols)
+        if self.contacts is not None:
+            out.update(contact_keys=self.contacts)
         return out
 
     def attrs(self, iteration: int, lp_time: float) -> dict[str, Any]:
@@ -652,7 +661,8 @@ class _LoopState:
         if "basis_keys" in arrays:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
-                   bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]))
+                   bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
+                   arrays.get("contact_keys"))
 
 
 def _phi(dia, box, dim) -> float:
