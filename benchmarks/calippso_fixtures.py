@@ -9,8 +9,11 @@ compression rate gamma and the stop pressure of its recipe, and written through 
 never appears). An existing file is kept, so an interrupted build continues with the next missing fixture; the LS run
 itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
 
-- ``ls1024_p1e5``: the CALiPPSO.jl-style start, plain LS to p = 1e5 (the reference's example inputs are LS outputs
-  at p = 1e5);
+- ``ls1024_p1e5``: plain LS to p = 1e5 (the reference's example inputs are LS outputs at p = 1e5; a fast one,
+  whose true pressure is ~10 times lower: it creeps);
+- ``lsmls1024_p1e5``: the CALiPPSO.jl-style start, LS to p = 1e5 then the MLS loop with p_max = 1e5 (rates 1e-2 ->
+  1e-4), so that p = 1e5 is the packing's own pressure, as in the reference's example file (d phi_J / (p (phi_J -
+  phi0)) ~ 1; the default start of bench_calippso.py);
 - ``ls1024_p1e12``, ``ls2048_p1e12``: LS outputs at p = 1e12, the inputs on which the new LP path's certificates are
   compared with today's;
 - ``ls10000_p1e12_s0``, ``ls10000_p1e12_s03``, ``ls16384_p1e12_s0``: LS outputs at p = 1e12 at the paper's N,
@@ -29,6 +32,7 @@ from pathlib import Path
 #: name -> (N, sigma, LS rate gamma, stop pressure p, seed)
 FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     "ls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
+    "lsmls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
     "ls1024_p1e12": (1024, 0.0, 1e-3, 1e12, 1),
     "ls2048_p1e12": (2048, 0.0, 1e-3, 1e12, 1),
     "ls10000_p1e12_s0": (10_000, 0.0, 1e-3, 1e12, 1),
@@ -57,6 +61,11 @@ def build(name: str, directory: Path = DEFAULT_DIR) -> Path:
     t = time.perf_counter()
     result = run_ls(poisson_packing(n, sigma, seed, dim=3), rate, p_max=pressure, seed=seed,
                     checkpoint=str(path) + ".ckpt", checkpoint_interval=120.0, progress_interval=60.0)
+    if name.startswith("lsmls"):
+        from spherejam.engines.closest_jamming import find_closest_jamming
+
+        result = find_closest_jamming(result.packing, initial_rate=rate, final_rate=1e-4, p_max=pressure, seed=seed,
+                                      progress_interval=60.0)
     packing = result.packing
     packing.metadata["fixture"] = name
     write_packing(path, packing)
