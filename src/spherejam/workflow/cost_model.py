@@ -25,11 +25,14 @@ development machine (AMD EPYC VM; figures in docs/cluster.md):
   iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
 * CALiPPSO: ``CALIPPSO_ITERATIONS`` LPs per certification (their mean: 62 over 26 certifications of N = 1000
   MLS outputs in the reproduction run, median 8, the longest 436, because some outputs creep by ~1e-8 in sqrt(Gamma)
-  per LP) of ``0.79 s (N / 1024)^2.23`` each on average: 46 CPU-s per certification at N = 1000 (measured: mean 46,
-  median 15, n = 23, warm-started simplex below N = 4096), and ~128 s per LP at N = 10^4 (five LPs of a tiled
-  N = 1250 MLS output: HiPO with a certified vertex 56-77 s, one fallback to HiPO + crossover 259 s, the force LP
-  176 s; docs/cluster.md). The old path (IPX + crossover) took 1.5 s / 35-64 s / 28 min per LP at N = 1024 / 4096 /
-  10^4.
+  per LP). Below N = 4096 (IPX, warm-started simplex) each costs ``0.79 s (N / 1024)^2.23`` on average: 46 CPU-s per
+  certification at N = 1000 (measured: mean 46, median 15, n = 23). From N = 4096 on (no warm starts) the LPs after
+  the first few are solved by the active-set shortcut (docs/calippso.md §5.4, §9): ``CALIPPSO_HIGHS_LPS`` LPs by
+  HiGHS at ``128 s (N / 10^4)^1.87`` (the mean HiGHS LP at N = 10^4 with its fallbacks, five LPs of a tiled N = 1250
+  MLS output; 1.87 from the certified HiPO vertex at N = 1024, 0.95 s, and N = 10^4, 56-77 s; it predicts
+  12 s at N = 4096 against 10.3 s measured, docs/calippso.md §5.2), the others at ``0.18 s (N / 1024)^1.6`` (the
+  shortcut's mean on LS outputs at p = 1e12: 0.18 s at N = 1024, 0.56 s at N = 2048; 3 of 32 LPs went to HiGHS
+  at N = 2048). Extrapolated, not yet validated at N = 10^4: ~12 CPU-min per certification of 60 LPs there.
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
@@ -66,11 +69,20 @@ MLS_SIZE_EXPONENT = 0.66
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: mean LP iterations of a certification, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks
-#: included), growing as N^CALIPPSO_EXPONENT (fitted to N = 1000 and 10^4).
+#: CALiPPSO: mean LP iterations of a certification; below N = CALIPPSO_SHORTCUT_MIN_N the mean CPU seconds of one LP
+#: at N = 1024 (d = 3, fallbacks included), growing as N^CALIPPSO_EXPONENT (fitted to N = 1000 and 10^4, the old path).
 CALIPPSO_ITERATIONS = 60
 CALIPPSO_LP_SECONDS = 0.79
 CALIPPSO_EXPONENT = 2.23
+#: From this N on (no warm starts: docs/calippso.md §5.3) most LPs are active-set solves (§5.4).
+CALIPPSO_SHORTCUT_MIN_N = 4096
+#: There: LPs per certification solved by HiGHS, their mean CPU seconds at N = 10^4 and growth exponent; the mean CPU
+#: seconds of a shortcut LP at N = 1024 and its growth exponent (module docstring).
+CALIPPSO_HIGHS_LPS = 3
+CALIPPSO_HIGHS_SECONDS = 128.0
+CALIPPSO_HIGHS_EXPONENT = 1.87
+CALIPPSO_SHORTCUT_SECONDS = 0.18
+CALIPPSO_SHORTCUT_EXPONENT = 1.6
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
@@ -153,6 +165,15 @@ def fb_iterations(rate: float) -> float:
     return FB_BASE + FB_PER_INVERSE_RATE / rate
 
 
+def calippso_seconds(n: int) -> float:
+    """Expected CPU seconds of one CALiPPSO certification of ``CALIPPSO_ITERATIONS`` LPs at N = ``n`` (d = 3)."""
+    if n < CALIPPSO_SHORTCUT_MIN_N:
+        return CALIPPSO_ITERATIONS * CALIPPSO_LP_SECONDS * (n / 1024.0) ** CALIPPSO_EXPONENT
+    highs = CALIPPSO_HIGHS_SECONDS * (n / 1e4) ** CALIPPSO_HIGHS_EXPONENT
+    shortcut = CALIPPSO_SHORTCUT_SECONDS * (n / 1024.0) ** CALIPPSO_SHORTCUT_EXPONENT
+    return CALIPPSO_HIGHS_LPS * highs + (CALIPPSO_ITERATIONS - CALIPPSO_HIGHS_LPS) * shortcut
+
+
 def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: float = 10.0,
                 decrease_factor: float = 2.0, final_rate: float = 1e-4) -> float:
     """Expected CPU seconds of the work of one job (no start-up, no margin).
@@ -171,7 +192,7 @@ def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: 
     if stage == "mls":
         return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
     if stage == "calippso":
-        return CALIPPSO_ITERATIONS * CALIPPSO_LP_SECONDS * (n / 1024.0) ** CALIPPSO_EXPONENT
+        return calippso_seconds(n)
     if stage == "analyze":
         return ANALYZE_SECONDS * n
     return 1e-4 * n  # seed
