@@ -225,14 +225,16 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
     """
     why = [] if why is None else why
+    t0 = time.perf_counter()
     for promotion in range(MAX_PROMOTIONS + 1):
         stuck: dict = {}
         sol = _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound=s_bound, pinned=pinned,
                             inflation_bounds=inflation_bounds, feasibility=feasibility, max_pivots=max_pivots,
                             rattler_s=rattler_s, fixed=fixed, why=why, stuck=stuck)
         if sol is not None or not stuck or promotion == MAX_PROMOTIONS:
-            if sol is not None and promotion:
-                sol.method += f"+{promotion}promoted"
+            if sol is not None:
+                sol.solve_time = time.perf_counter() - t0  # the attempts before a promotion included
+                sol.method += f"+{promotion}promoted" if promotion else ""
             return sol
         promoted = _promote(rij, sigma2, pi, pj, n, rattler, stuck)
         if promoted is None:
