@@ -14,8 +14,8 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
 - ``lsmls1024_p1e5``: the CALiPPSO.jl-style start, LS to p = 1e5 then the MLS loop with p_max = 1e5 (rates 1e-2 ->
   1e-4), so that p = 1e5 is the packing's own pressure, as in the reference's example file (d phi_J / (p (phi_J -
   phi0)) ~ 1; the default start of bench_calippso.py);
-- ``ls1024_p1e12``, ``ls2048_p1e12``: LS outputs at p = 1e12, the inputs on which the new LP path's certificates are
-  compared with today's;
+- ``ls1024_p1e12``, ``ls1024_p1e12_s03``, ``ls2048_p1e12``: LS outputs at p = 1e12 (sigma = 0, 0.3, 0), the inputs
+  on which the new LP path's certificates are compared with today's;
 - ``ls10000_p1e12_s0``, ``ls10000_p1e12_s03``, ``ls16384_p1e12_s0``: LS outputs at p = 1e12 at the paper's N,
   sigma = 0 and 0.3 (sigma: relative standard deviation of the diameters).
 
@@ -34,6 +34,7 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     "ls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
     "lsmls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
     "ls1024_p1e12": (1024, 0.0, 1e-3, 1e12, 1),
+    "ls1024_p1e12_s03": (1024, 0.3, 1e-3, 1e12, 1),
     "ls2048_p1e12": (2048, 0.0, 1e-3, 1e12, 1),
     "ls10000_p1e12_s0": (10_000, 0.0, 1e-3, 1e12, 1),
     # gamma = 1e-2: on a 2-core machine shared four ways, gamma = 1e-3 took ~50 min at N = 1e4

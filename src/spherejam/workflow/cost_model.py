@@ -32,7 +32,7 @@ development machine (AMD EPYC VM; figures in docs/cluster.md):
   MLS output; 1.87 from the certified HiPO vertex at N = 1024, 0.95 s, and N = 10^4, 56-77 s; it predicts
   12 s at N = 4096 against 10.3 s measured, docs/calippso.md §5.2), the others at ``0.18 s (N / 1024)^1.6`` (the
   shortcut's mean on LS outputs at p = 1e12: 0.18 s at N = 1024, 0.56 s at N = 2048; 3 of 32 LPs went to HiGHS
-  at N = 2048). Extrapolated, not yet validated at N = 10^4: ~12 CPU-min per certification of 60 LPs there.
+  at N = 2048). Extrapolated, not yet validated at N = 10^4: ~13 CPU-min per certification of 60 LPs there.
 * seed and analyze: seconds at N = 10^4 (start-up dominates).
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
