@@ -442,6 +442,9 @@ def main(argv=None) -> int:
                 cert = pool.submit(timed_run, start, kw).result()
         report(path, start, cert)
         target = TARGETS.get(start.n)
+        pressure = float(start.metadata.get("reduced_pressure") or math.nan)
+        if start.n == 1024 and not pressure < 1e9:  # N = 1024's target is for a start at p = 1e5
+            target = None
         if target is not None and "max_iterations" not in kw:
             print(f"   issue target <= {target:g} s on one core: {'met' if cert.cpu <= target else 'NOT met'} (CPU s)")
         if results and results[0].completed and cert.completed:
