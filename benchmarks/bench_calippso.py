@@ -11,13 +11,22 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][@max_lps]``: ``ipx+crossover`` is the old path (IPX interior point, HiGHS
+A path is ``solver[:threads][+crossover][-warm][@max_lps]`` (``auto``: run_calippso's default; ``-warm``: no warm
+starts, the path of every N >= 4096): ``ipx+crossover`` is the old path (IPX interior point, HiGHS
 crossover), ``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only
 as the fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is the reference: every other path
 must give the same contact network, the same rattlers and force balance <= 1e-10 (printed as "agree"). Times are
 CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and in total.
 ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times are then
 compared with the same LPs of the other paths, not its total).
+
+``--baseline REF`` runs every path twice, side by side in one run: with today's package (this checkout) and with
+the package as it was at git revision REF (exported by ``git archive`` into a temporary folder and run in a child
+process; default :data:`BASELINE_REF`, the last revision before the active-set solve learnt to pivot on bounds, to
+relax violated rows and to promote rattlers, docs/calippso.md §5.4). The new path's certificate must agree with the
+baseline's (same contacts and rattlers, force balance <= 1e-10, |delta phi| <= 1e-9). ``--fixture NAME`` starts from
+a packing built by ``benchmarks/calippso_fixtures.py``. ``--table`` prints one summary row per path (LPs, CPU per LP,
+the solver path of each LP as one letter per LP, contacts, rattlers, isostaticity, force balance).
 
 ``--tile K`` replicates the start K x K x K times in a box K times as large: a packing jammed at pressure p stays
 jammed at p, with K^3 N spheres. Its LPs have the size, sparsity and contact statistics of an N = K^3 N packing's (a
@@ -79,14 +88,22 @@ def ls_start(n: int, pressure: float, rate: float, seed: int, kind: str = "mls")
 
 #: Targets (s on one core) of the whole certification, by N.
 TARGETS = {1024: 2.0, 10_000: 300.0, 16384: 1800.0}
+#: Today's path of ``--baseline``: the package before the active-set solve pivoted on bounds (issue 30).
+BASELINE_REF = "8725c3c"
+#: One letter per LP method in the ``--table`` solver path.
+METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "vertex": "V", "predicted": "P"}
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][@max_lps]`` -> run_calippso keyword arguments."""
+    """``solver[:threads][+crossover][-warm][@max_lps]`` -> run_calippso keyword arguments (``-warm``: no warm
+    starts, as from N = 4096 on)."""
     text, _, max_lps = text.partition("@")
+    kw = {}
+    if text.endswith("-warm"):
+        text, kw["warm_start"] = text.removesuffix("-warm"), False
     crossover = True if text.endswith("+crossover") else None  # None: run_calippso's pairing for the solver
     solver, _, threads = text.removesuffix("+crossover").partition(":")
-    kw = {"solver": solver, "threads": int(threads or 1), "crossover": crossover}
+    kw.update(solver=solver, threads=int(threads or 1), crossover=crossover)
     if max_lps:
         kw["max_iterations"] = int(max_lps)
     return kw
@@ -102,42 +119,107 @@ def tiled(packing: Packing, k: int) -> Packing:
     return Packing(x, np.tile(packing.diameters, len(shifts)), k * packing.box, metadata)
 
 
-def timed_run(start: Packing, kw: dict):
+class Certificate:
+    """The figures of one certification: from a run in this process (``result`` set) or from a child's dump."""
+
+    SCALARS = ("phi", "phi_initial", "n_contacts", "n_rattlers", "isostatic", "force_balance_residual", "iterations",
+               "completed", "cpu", "wall_time")
+
+    def __init__(self, **fields):
+        self.result = None
+        self.__dict__.update(fields)
+
+    @classmethod
+    def of(cls, result, cpu: float) -> Certificate:
+        return cls(result=result, history=result.history, pairs=result.pairs, rattlers=result.rattlers,
+                   forces=result.forces, phi=result.phi, phi_initial=result.phi_initial,
+                   n_contacts=result.n_contacts, n_rattlers=result.n_rattlers, isostatic=result.isostatic,
+                   force_balance_residual=result.force_balance_residual, iterations=result.iterations,
+                   completed=result.completed, cpu=cpu, wall_time=result.wall_time, counters=result.counters)
+
+    def dump(self, path: str) -> None:
+        import json
+
+        arrays = {f"history_{k}": v for k, v in self.history.items()}
+        meta = {k: getattr(self, k) for k in self.SCALARS}
+        meta["counters"] = {k: v for k, v in self.counters.items() if isinstance(v, (int, float, str, bool, dict))}
+        np.savez(path, pairs=self.pairs, rattlers=self.rattlers, forces=self.forces,
+                 meta=np.array(json.dumps(meta, default=float)), **arrays)
+
+    @classmethod
+    def load(cls, path: str) -> Certificate:
+        import json
+
+        with np.load(path) as f:
+            meta = json.loads(str(f["meta"]))
+            history = {k.removeprefix("history_"): f[k] for k in f.files if k.startswith("history_")}
+            return cls(history=history, pairs=f["pairs"], rattlers=f["rattlers"], forces=f["forces"], **meta)
+
+    @property
+    def rattler_fraction(self) -> float:
+        return self.n_rattlers / self.rattlers.size
+
+    def solver_path(self) -> str:
+        """One letter per LP (:data:`METHOD_LETTERS`)."""
+        names = {code: name for name, code in METHOD_CODES.items()}
+        return "".join(METHOD_LETTERS[names[int(c)]] for c in self.history["method"])
+
+
+def timed_run(start: Packing, kw: dict) -> Certificate:
     """run_calippso and the CPU seconds it took (this process, all its threads)."""
     cpu0 = time.process_time()
     result = run_calippso(start, progress_interval=30.0, **kw)
-    return result, time.process_time() - cpu0
+    return Certificate.of(result, time.process_time() - cpu0)
 
 
-def report(label: str, start: Packing, result, cpu: float) -> None:
-    h = result.history
-    s = result.summary()
+def baseline_run(ref: str, start_file: str, path: str, workdir: str) -> Certificate:
+    """The certification of ``start_file`` by the package as it was at git revision ``ref``, in a child process."""
+    import os
+    import subprocess
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parent.parent
+    tree = Path(workdir) / f"spherejam-{ref}"
+    if not tree.exists():
+        tree.mkdir(parents=True)
+        archive = subprocess.run(["git", "-C", str(repo), "archive", ref, "src"], check=True, capture_output=True)
+        subprocess.run(["tar", "-x", "-C", str(tree)], input=archive.stdout, check=True)
+    out = Path(workdir) / f"baseline-{path.replace(':', '_').replace('@', '_')}.npz"
+    env = {**os.environ, "PYTHONPATH": str(tree / "src")}
+    subprocess.run([sys.executable, __file__, "--start", start_file, "--paths", path, "--dump", str(out)], env=env,
+                   check=True)
+    return Certificate.load(str(out))
+
+
+def report(label: str, start: Packing, cert: Certificate) -> None:
+    h = cert.history
     names = {code: name for name, code in METHOD_CODES.items()}
     per_method = ", ".join(
         f"{names[c]} {int(np.sum(h['method'] == c))} ({h['cpu_time'][h['method'] == c].sum():.2f} s)"
         for c in sorted(set(h["method"].tolist())))
+    c = cert.counters
     print(f"== {label}")
-    print(f"   iterations {result.iterations} (converged {result.completed}); LPs (CPU s): {per_method}")
-    print(f"   CPU {cpu:.2f} s (LPs incl. the force LP {result.counters['lp_cpu_time']:.2f} s), wall "
-          f"{result.wall_time:.2f} s; methods incl. force LP {result.counters['lp_methods']}, HiGHS solvers "
-          f"{result.counters['lp_solvers']}, warm-start attempts {result.counters['warm_attempts']}")
-    print(f"   phi_J {result.phi:.10f}  delta_phi {s['delta_phi']:.3e}  contacts {result.n_contacts}  "
-          f"rattlers {result.n_rattlers} ({100 * s['rattler_fraction']:.2f}%)  isostatic {result.isostatic}  "
-          f"force balance {result.force_balance_residual:.2e}  worst overlap {result.counters['worst_overlap']:.1e}")
+    print(f"   iterations {cert.iterations} (converged {cert.completed}); LPs (CPU s): {per_method}")
+    print(f"   CPU {cert.cpu:.2f} s (LPs incl. the force LP {c['lp_cpu_time']:.2f} s), wall "
+          f"{cert.wall_time:.2f} s; methods incl. force LP {c['lp_methods']}, HiGHS solvers "
+          f"{c['lp_solvers']}, warm-start attempts {c['warm_attempts']}")
+    print(f"   phi_J {cert.phi:.10f}  delta_phi {cert.phi - cert.phi_initial:.3e}  contacts {cert.n_contacts}  "
+          f"rattlers {cert.n_rattlers} ({100 * cert.rattler_fraction:.2f}%)  isostatic {cert.isostatic}  "
+          f"force balance {cert.force_balance_residual:.2e}  worst overlap {c['worst_overlap']:.1e}")
     if start.metadata.get("reduced_pressure"):
         p = float(start.metadata["reduced_pressure"])
         if p < 1e9:
             print(f"   LS->CALiPPSO consistency d phi_J / (p (phi_J - phi0)) = "
-                  f"{start.dim * result.phi / (p * (result.phi - start.phi)):.3f} (spec: ~1 +- 30%)")
+                  f"{start.dim * cert.phi / (p * (cert.phi - start.phi)):.3f} (spec: ~1 +- 30%)")
         else:  # the expected shift d phi / p is below the LP's resolution
             print(f"   start at p = {p:.3g}: expected phi_J - phi0 ~ d phi / p = {start.dim * start.phi / p:.1e}")
     print("   per LP: sqrt(G)-1, max|s|, rows, CPU s, wall s, method")
-    for k in range(result.iterations):
+    for k in range(cert.iterations):
         print(f"     {k + 1:3d} {h['sqrt_inflation_minus_1'][k]: .3e} {h['max_displacement'][k]:.3e} "
               f"{h['n_constraints'][k]:7d} {h['cpu_time'][k]:7.2f} {h['solve_time'][k]:7.2f} "
               f"{names[int(h['method'][k])]}")
-    if result.completed:
-        d = distributions(result)
+    if cert.completed and cert.result is not None:
+        d = distributions(cert.result)
         print(f"   gaps: gamma = {d['gap_gamma']:.3f} +- {d['gap_gamma_stderr']:.3f} from {int(d['gap_fit_n'])} gaps "
               f"in h in [{d['gap_fit_lo']:g}, {d['gap_fit_hi']:g}] (mean field {MEAN_FIELD_GAMMA})")
         print(f"   forces: theta(all) = {d['force_theta_all']:.3f} +- {d['force_theta_all_stderr']:.3f}, "
@@ -146,21 +228,35 @@ def report(label: str, start: Packing, result, cpu: float) -> None:
               f"{MEAN_FIELD_THETA_E})")
 
 
-def _by_pair(result) -> np.ndarray:
+TABLE_HEAD = ("| input | N | code | LPs | CPU s | CPU s / LP | solver path per LP | contacts | rattlers | isostatic "
+              "| force balance |\n|---|---|---|---|---|---|---|---|---|---|---|")
+
+
+def table_row(label: str, n: int, code: str, cert: Certificate) -> str:
+    lps = cert.iterations + (1 if cert.counters.get("fine_tuned") else 0)
+    return (f"| {label} | {n} | {code} | {cert.iterations} + 1 | {cert.cpu:.1f} | {cert.cpu / max(lps, 1):.2f} | "
+            f"{cert.solver_path()} | {cert.n_contacts} | {cert.n_rattlers} | {cert.isostatic} | "
+            f"{cert.force_balance_residual:.1e} |")
+
+
+def _by_pair(cert) -> np.ndarray:
     """The contact forces ordered by their pair (i, j), so that two results compare force to force."""
-    return result.forces[np.lexsort((result.pairs[:, 1], result.pairs[:, 0]))]
+    return cert.forces[np.lexsort((cert.pairs[:, 1], cert.pairs[:, 0]))]
 
 
 def agreement(ref, other) -> str:
-    """Same contact network and rattlers as the reference path, and both force balances <= 1e-10."""
+    """Same contact network and rattlers as the reference path, both force balances <= 1e-10 and |delta phi| <=
+    1e-9; failing that, whether both are isostatic and balanced (another vertex of a degenerate optimum)."""
     same_pairs = {tuple(p) for p in ref.pairs.tolist()} == {tuple(p) for p in other.pairs.tolist()}
     same_rattlers = bool(np.array_equal(ref.rattlers, other.rattlers))
     balanced = max(ref.force_balance_residual, other.force_balance_residual) <= 1e-10
+    dphi = other.phi - ref.phi
     df = float(np.max(np.abs(_by_pair(ref) - _by_pair(other)))) if same_pairs else float("nan")
-    ok = same_pairs and same_rattlers and balanced and ref.isostatic == other.isostatic
+    ok = same_pairs and same_rattlers and balanced and ref.isostatic == other.isostatic and abs(dphi) <= 1e-9
+    verdict = "agree" if ok else ("DISAGREE (both isostatic and balanced)" if balanced and ref.isostatic
+                                  and other.isostatic else "DISAGREE")
     return (f"same contacts {same_pairs}, same rattlers {same_rattlers}, force balance <= 1e-10 {balanced}, "
-            f"max |f - f_ref| {df:.1e} (units of the mean), delta phi {other.phi - ref.phi:.1e} -> "
-            f"{'agree' if ok else 'DISAGREE'}")
+            f"max |f - f_ref| {df:.1e} (units of the mean), delta phi {dphi:.1e} -> {verdict}")
 
 
 def per_lp_ratio(ref, other) -> str:
@@ -279,6 +375,12 @@ def main(argv=None) -> int:
     ap.add_argument("--fallback", action="store_true",
                     help="time the fallback of an uncertified vertex on the first LP, new path against the old")
     ap.add_argument("--tile", type=int, default=1, help="replicate the start K x K x K times (default 1)")
+    ap.add_argument("--fixture", help="start from this benchmarks/calippso_fixtures.py fixture (built if missing)")
+    ap.add_argument("--baseline", nargs="?", const=BASELINE_REF, default=None, metavar="REF",
+                    help=f"also run every path with the package at git revision REF ({BASELINE_REF}), side by side")
+    ap.add_argument("--table", action="store_true", help="print one markdown table row per path at the end")
+    ap.add_argument("--label", help="the input's name in the table (default: the fixture or start file)")
+    ap.add_argument("--dump", help=argparse.SUPPRESS)  # a child of --baseline: write the certificate here
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args(argv)
     if args.tile < 1:
@@ -290,11 +392,15 @@ def main(argv=None) -> int:
     if args.dat:
         start = read_dat(args.dat)
         label = args.dat
-    elif args.start:
+    elif args.start or args.fixture:
         from spherejam.core.packing_io import read_packing
 
+        if args.fixture:
+            from calippso_fixtures import build
+
+            args.start = str(build(args.fixture))
         start = read_packing(args.start)
-        label = args.start
+        label = args.fixture or args.start
     else:
         start, t_ls = ls_start(args.n, args.pressure, args.rate, args.seed, args.start_kind)
         label = f"{args.start_kind.upper()} start, seed {args.seed} (made in {t_ls:.1f} s, not timed below)"
@@ -310,26 +416,55 @@ def main(argv=None) -> int:
     if args.fallback:
         time_fallback(start)
         return 0
+    if args.dump:  # a child of --baseline: one path, its certificate to a file
+        timed_run(start, parse_path(args.paths[0])).dump(args.dump)
+        return 0
+    import tempfile
+
+    workdir = tempfile.mkdtemp(prefix="bench_calippso-")
+    start_file = args.start
+    if args.baseline and (start_file is None or args.tile > 1):
+        from spherejam.core.packing_io import write_packing
+
+        start_file = f"{workdir}/start.h5"
+        write_packing(start_file, start)
+    rows = []
     results = []
     for path in args.paths:
         kw = parse_path(path)
         if kw["threads"] == 1:
-            result, cpu = timed_run(start, kw)
+            cert = timed_run(start, kw)
         else:  # HiGHS fixes its thread count at a process's first solve: run this path in a fresh process
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
 
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-                result, cpu = pool.submit(timed_run, start, kw).result()
-        report(path, start, result, cpu)
+                cert = pool.submit(timed_run, start, kw).result()
+        report(path, start, cert)
         target = TARGETS.get(start.n)
+        pressure = float(start.metadata.get("reduced_pressure") or math.nan)
+        if start.n == 1024 and not pressure < 1e9:  # N = 1024's target is for a start at p = 1e5
+            target = None
         if target is not None and "max_iterations" not in kw:
-            print(f"   issue target <= {target:g} s on one core: {'met' if cpu <= target else 'NOT met'} (CPU s)")
-        if results and results[0].completed and result.completed:
-            print(f"   vs {args.paths[0]}: {agreement(results[0], result)}")
+            print(f"   issue target <= {target:g} s on one core: {'met' if cert.cpu <= target else 'NOT met'} (CPU s)")
+        if results and results[0].completed and cert.completed:
+            print(f"   vs {args.paths[0]}: {agreement(results[0], cert)}")
         elif results:
-            print(f"   vs {args.paths[0]}: {per_lp_ratio(results[0], result)}")
-        results.append(result)
+            print(f"   vs {args.paths[0]}: {per_lp_ratio(results[0], cert)}")
+        results.append(cert)
+        name = args.label or label
+        if args.baseline:
+            base = baseline_run(args.baseline, start_file, path, workdir)
+            report(f"{path} at {args.baseline} (today's path)", start, base)
+            print(f"   new against today's: LPs {cert.iterations} vs {base.iterations}, CPU {cert.cpu:.1f} s vs "
+                  f"{base.cpu:.1f} s (ratio {base.cpu / cert.cpu:.2f})")
+            if base.completed and cert.completed:
+                print(f"   new against today's certificate: {agreement(base, cert)}")
+            rows.append(table_row(name, start.n, f"{path} at {args.baseline}", base))
+        rows.append(table_row(name, start.n, path, cert))
+    if args.table:
+        print(TABLE_HEAD)
+        print("\n".join(rows))
     return 0
 
 

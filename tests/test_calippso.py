@@ -539,3 +539,94 @@ def test_rattlers_are_placed_by_a_feasibility_lp_when_pushing_fails():
     s = np.zeros((3, 3))
     s[0, 0], s[2, 0] = 0.06, -0.06  # the walls closed in: 2.1 - 0.12 < 2 diameters, no room
     assert not _place_rattlers(rij, sigma2, pi, pj, s, 1.0, rattler, 0.1, 1e-12)
+
+
+def _main_loop_lp(packing, cutoff=1.35):
+    """The rows of a main-loop LP of ``packing`` in its own units (pairs within ``cutoff`` largest diameters)."""
+    x, box = packing.positions, packing.box
+    i, j, _ = pairs_in_cutoff(x, box, cutoff)
+    return pair_vectors(x, box, i, j), (0.5 * (packing.diameters[i] + packing.diameters[j])) ** 2, i, j
+
+
+def test_active_set_pivots_a_bound_in_when_the_prediction_overshoots_it(ls_jammed_256):
+    """The contact network of an LP predicts the vertex of the same LP with a tighter s bound only if the solve can
+    pivot on bounds: the prediction's vertex lies beyond the bound, dual pivots bring bound rows in, and the result
+    is HiGHS's optimum (same Gamma, a bound active) -- before bounds were rows, this fell back to HiGHS."""
+    from spherejam.calippso.active_set import network_prediction, solve_active_set
+    from spherejam.calippso.network import contact_network
+
+    n = ls_jammed_256.n
+    rij, sigma2, i, j = _main_loop_lp(ls_jammed_256)
+    wide = solve_lp(rij, sigma2, i, j, n, s_bound=0.05, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    contact, rattler, _, isostatic, _ = contact_network(rij, sigma2, i, j, wide.duals, n, 3, 1e-10)
+    assert isostatic
+    stable_s = float(np.max(np.abs(wide.s[~rattler])))
+    tight = 0.5 * stable_s  # the wide LP's vertex is beyond this bound
+    why: list[str] = []
+    sol = solve_active_set(rij, sigma2, i, j, n, *network_prediction(contact, rattler, i, j, n), s_bound=tight,
+                           pinned=0, inflation_bounds=(1.0, 2.0), max_pivots=500, why=why)
+    assert sol is not None, why
+    assert "bounds" in sol.method  # a bound row entered
+    ref = solve_lp(rij, sigma2, i, j, n, s_bound=tight, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    assert sol.inflation == pytest.approx(ref.inflation, rel=0, abs=1e-12)
+    assert np.max(np.abs(sol.s)) == pytest.approx(tight, rel=1e-12) and np.all(np.abs(sol.s) <= tight)
+    excess = np.einsum("ij,ij->i", rij, rij + 2.0 * (sol.s[i] - sol.s[j])) - sol.inflation * sigma2
+    assert excess.min() >= -1e-12 and np.all(sol.duals >= 0)
+
+
+@pytest.fixture(scope="module")
+def ls_fast_256():
+    """A fast LS packing (rate 1e-2) at p = 1e12: its LPs creep, their contact networks change from LP to LP."""
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.lubachevsky_stillinger import run_ls
+
+    return run_ls(poisson_packing(256, 0.0, 3), 1e-2, p_max=1e12, seed=3, progress_interval=1e9).packing
+
+
+def test_active_set_relaxes_and_promotes_on_a_creeping_input(monkeypatch, ls_fast_256):
+    """Where the previous contact network is beyond other rows with negative duals, or leaves a rattler no place,
+    the active-set solve relaxes those rows / makes the rattler a member, and certifies the LP instead of falling
+    back to HiGHS (every LP from N = 4096 on goes this way; forced here at N = 256 by warm_start=False). The
+    certificate is the one of a run where every LP is solved by HiGHS."""
+    import spherejam.calippso.run as run_module
+
+    methods: list[str] = []
+    solve = run_module.solve_active_set
+
+    def recorded(*args, **kwargs):
+        sol = solve(*args, **kwargs)
+        methods.append("failed" if sol is None else sol.method)
+        return sol
+
+    monkeypatch.setattr(run_module, "solve_active_set", recorded)
+    new = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    monkeypatch.setattr(run_module, "solve_active_set", solve)
+    every = run_calippso(ls_fast_256, solver="hipo", warm_start=False, active_set=False)
+    assert any("relaxed" in m for m in methods), methods
+    assert any("promoted" in m for m in methods), methods
+    assert_jammed(new, 3)
+    assert_jammed(every, 3)
+    assert new.counters["lp_methods"].get("active-set", 0) > len(methods) // 2
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in every.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, every.rattlers)
+    assert new.phi == pytest.approx(every.phi, abs=1e-9)
+
+
+def test_forced_active_set_failure_falls_back_to_highs(monkeypatch, ls_fast_256):
+    """Every active-set attempt forced to fail: each LP falls back to HiGHS (interior point + certified vertex) and
+    the run reaches the same certificate as with the shortcut."""
+    import spherejam.calippso.lp as lp
+    import spherejam.calippso.run as run_module
+    from spherejam.calippso.solution import METHOD_CODES
+
+    ref = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    monkeypatch.setattr(run_module, "solve_active_set", lambda *args, **kwargs: None)
+    calls = []
+    certify = lp.solve_active_set
+    monkeypatch.setattr(lp, "solve_active_set", lambda *a, **k: calls.append(1) or certify(*a, **k))
+    forced = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    assert not np.any(forced.history["method"] == METHOD_CODES["active-set"])
+    assert len(calls) >= forced.iterations  # every LP went to HiGHS and had its interior point certified
+    assert_jammed(forced, 3)
+    assert {tuple(p) for p in forced.pairs.tolist()} == {tuple(p) for p in ref.pairs.tolist()}
+    assert forced.phi == pytest.approx(ref.phi, abs=1e-9)

@@ -13,9 +13,9 @@ side; ties go to the centre of the flattest stretch. At p = 1e12 this lands arou
 the reference code's 1e-7 (docs/algorithms.md §6.1). Without a pressure the scan starts at 1e-12.
 :func:`tolerance_scan` gives the coordination over the whole grid, to show the plateau.
 
-**Rattlers** (:func:`rattler_mask`): a particle with fewer than ``min_contacts`` (default d + 1) contacts with
-non-rattlers is a rattler, recursively. The fixed point is the k-core of the contact graph, k = d + 1, computed by
-peeling in O(N + K).
+**Rattlers** (:func:`rattler_mask`, from :mod:`spherejam.core.rattlers`): a particle with fewer than
+``min_contacts`` (default d + 1) contacts with non-rattlers is a rattler, recursively. The fixed point is the k-core
+of the contact graph, k = d + 1, computed by peeling in O(N + K).
 
 **Isostaticity** (paper, Appendix E): the N' non-rattlers of a jammed periodic packing need at least
 K_0 = d(N' - 1) + 1 contacts among themselves; a random jammed packing has exactly K_0, so Z = 2K'/N' -> 2d.
@@ -28,11 +28,11 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from numba import njit
 
 from ..core import neighbours
 from ..core.errors import InputError, require
 from ..core.packing import Packing
+from ..core.rattlers import rattler_mask
 
 #: Largest gap examined by the tolerance scan (relative to D_ij).
 MAX_SCAN_GAP = 1e-3
@@ -115,63 +115,6 @@ def choose_tolerance(gaps: np.ndarray, pressure: float | None = None) -> float:
             k += 1
     lo, hi = math.floor(best_mid), math.ceil(best_mid)
     return float(math.sqrt(grid[lo] * grid[hi]))
-
-
-# --- rattlers ------------------------------------------------------------------------------------------------------
-
-
-@njit(cache=True)
-def k_core(n, pair_i, pair_j, k):
-    """Membership of the k-core of the graph with n nodes and edges (pair_i, pair_j): True = in the core.
-
-    Peels nodes of degree < k one at a time, updating the degrees of their neighbours (Batagelj-Zaversnik style),
-    which gives the same fixed point as the recursive "fewer than k contacts with non-rattlers" rule.
-    """
-    m = pair_i.shape[0]
-    degree = np.zeros(n, dtype=np.int64)
-    for e in range(m):
-        degree[pair_i[e]] += 1
-        degree[pair_j[e]] += 1
-    start = np.zeros(n + 1, dtype=np.int64)
-    for v in range(n):
-        start[v + 1] = start[v] + degree[v]
-    fill = start[:-1].copy()
-    adj = np.empty(2 * m, dtype=np.int64)
-    for e in range(m):
-        a, b = pair_i[e], pair_j[e]
-        adj[fill[a]] = b
-        fill[a] += 1
-        adj[fill[b]] = a
-        fill[b] += 1
-    alive = np.ones(n, dtype=np.bool_)
-    stack = np.empty(n, dtype=np.int64)
-    top = 0
-    for v in range(n):
-        if degree[v] < k:
-            alive[v] = False
-            stack[top] = v
-            top += 1
-    while top > 0:
-        top -= 1
-        v = stack[top]
-        for idx in range(start[v], start[v + 1]):
-            u = adj[idx]
-            if alive[u]:
-                degree[u] -= 1
-                if degree[u] < k:
-                    alive[u] = False
-                    stack[top] = u
-                    top += 1
-    return alive
-
-
-def rattler_mask(n: int, pair_i: np.ndarray, pair_j: np.ndarray, min_contacts: int) -> np.ndarray:
-    """True for rattlers: particles outside the ``min_contacts``-core of the contact graph."""
-    require(int(min_contacts) == min_contacts and min_contacts >= 1, "min_contacts", min_contacts,
-            "must be an integer >= 1")
-    pair_i = np.ascontiguousarray(pair_i, dtype=np.int64)
-    pair_j = np.ascontiguousarray(pair_j, dtype=np.int64)
-    return ~k_core(int(n), pair_i, pair_j, int(min_contacts))
 
 
 # --- coordination ----------------------------------------------------------------------------------------------------

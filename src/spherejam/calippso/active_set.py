@@ -10,7 +10,9 @@ import time
 
 import numpy as np
 
+from ..core.rattlers import rattler_mask
 from .constraints import constraint_rows
+from .highs import highs_model
 from .solution import LPSolution
 
 
@@ -33,8 +35,6 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score
     are the predicted vertex, for :func:`solve_active_set` to certify.
     """
-    from ..analysis.contacts import rattler_mask
-
     m = len(pi)
     score = duals * sigma2 * m / np.maximum(slack / sigma2, 1e-300)
     near = score > 1.0
@@ -134,8 +134,6 @@ def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin)
     import highspy
     from scipy.sparse import csr_matrix
 
-    from .lp import highs_model  # lp imports this module
-
     n, dim = s.shape
     rows = np.flatnonzero(rattler[pi] | rattler[pj])
     movers = np.flatnonzero(rattler)
@@ -169,36 +167,109 @@ def _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, margin)
     return True
 
 
+def _with_bound_rows(a, rhs, nu, s_bound, inflation_bounds):
+    """The pair rows ``a`` (CSR, nu columns: the free s components, then Gamma) and their right-hand side, with the
+    rows s_c <= s_bound and -s_c <= s_bound of every free component and Gamma <= hi, -Gamma <= -lo (finite bounds
+    only) appended: every constraint of the LP as a row a . u <= b."""
+    from scipy.sparse import csr_matrix, vstack
+
+    k = nu - 1
+    lo, hi = inflation_bounds
+    cols = [np.arange(k), np.arange(k)]
+    vals = [np.ones(k), -np.ones(k)]
+    b = [np.full(k, float(s_bound)), np.full(k, float(s_bound))]
+    for value, bound in ((1.0, hi), (-1.0, -lo)):
+        if np.isfinite(bound):
+            cols.append(np.array([k]))
+            vals.append(np.array([value]))
+            b.append(np.array([bound]))
+    cols, vals = np.concatenate(cols), np.concatenate(vals)
+    bounds = csr_matrix((vals, (np.arange(cols.size), cols)), shape=(cols.size, nu))
+    return vstack([a, bounds], format="csr"), np.concatenate([rhs, *b])
+
+
 def _fail(why: list[str] | None, reason: str) -> None:
     if why is not None:
         why.append(reason)
     return None
 
 
+#: Times an active-set solve may turn the predicted rattlers that found no place into members of the network.
+MAX_PROMOTIONS = 2
+
+
 def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
                      feasibility=1e-12, max_pivots=None, rattler_s=None, fixed=None,
                      why: list[str] | None = None) -> LPSolution | None:
-    """Solve the LP from a predicted active set by primal simplex pivots; None if that does not work out.
+    """Solve the LP from a predicted active set by simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
     ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
     non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
-    transpose, the duals. While a dual is negative, that contact is released along the edge that keeps the others
-    tight and the first pair row to close enters (the primal simplex method with the exact ratio test). A
-    prediction that violates other rows while its duals are >= 0 is first repaired by dual simplex pivots (the most
-    violated row enters, the dual ratio test picks the row that leaves). Every pivot updates the basis matrix's LU
-    (:class:`BasisInverse`). The vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one
-    is a contact without force, at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``,
-    absolute, sigma^2 units), i.e. primal and dual feasible with complementary slackness. Rattlers start from
-    ``rattler_s`` ((N, d), e.g. an interior point, whose rattlers sit inside their cages; default 0) and are pushed
-    out of rows they violate, or placed by a small LP when pushing does not settle them. ``fixed`` ((N, d) of -1 / 0
-    / +1) predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns
-    (one contact fewer each), and their bound multipliers must come out >= 0, else None (bounds never pivot).
-    Anything else -- a rattler joining the network, another active s or a Gamma bound, a singular system, more than
-    ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reason is appended to ``why``
-    (a list, if given), for the LP's failure log. Near convergence the active set barely changes, and this replaces
-    a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
+    transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
+    below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
+    others tight and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows
+    with duals >= 0 is repaired by dual simplex pivots (the most violated row enters, the dual ratio test picks the
+    one that leaves); beyond other rows with negative duals, those rows are relaxed until primal pivots have made the
+    duals >= 0, then restored by dual pivots. Every pivot updates the basis matrix's LU (:class:`BasisInverse`). The
+    vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one is a contact without force,
+    at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e.
+    primal and dual feasible with complementary slackness. Rattlers start from ``rattler_s`` ((N, d), e.g. an
+    interior point, whose rattlers sit inside their cages; default 0) and are pushed out of rows they violate, or
+    placed by a small LP when pushing does not settle them; rattlers that find no place join the network with their
+    d tightest rows and the solve starts again (:data:`MAX_PROMOTIONS` times). ``fixed`` ((N, d) of -1 / 0 / +1)
+    predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns (one
+    contact fewer each), and their bound multipliers must come out >= 0, else None. Anything else -- a singular
+    system, more than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reasons are
+    appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active set barely
+    changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
     """
+    why = [] if why is None else why
+    t0 = time.perf_counter()
+    for promotion in range(MAX_PROMOTIONS + 1):
+        stuck: dict = {}
+        sol = _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound=s_bound, pinned=pinned,
+                            inflation_bounds=inflation_bounds, feasibility=feasibility, max_pivots=max_pivots,
+                            rattler_s=rattler_s, fixed=fixed, why=why, stuck=stuck)
+        if sol is not None or not stuck or promotion == MAX_PROMOTIONS:
+            if sol is not None:
+                sol.solve_time = time.perf_counter() - t0  # the attempts before a promotion included
+                sol.method += f"+{promotion}promoted" if promotion else ""
+            return sol
+        promoted = _promote(rij, sigma2, pi, pj, n, rattler, stuck)
+        if promoted is None:
+            return _fail(why, "a predicted rattler that found no place has fewer than d rows with the network")
+        extra_keys, rattler = promoted
+        contact_keys = np.sort(np.concatenate([contact_keys, extra_keys]))
+        why.append(f"{extra_keys.size // rij.shape[1]} rattler(s) joined the network")
+    return None
+
+
+def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
+    """The predicted rattlers that found no place at the vertex, made members of the network: each gets its d rows
+    with the lowest slack at that vertex (with partners in the network) as predicted contacts. Returns ``(the new
+    rows' keys, the new rattler mask)``, or None when a rattler has fewer than d such rows."""
+    dim = rij.shape[1]
+    s, inflation, movers = stuck["s"], stuck["inflation"], stuck["rattlers"]
+    rattler = rattler.copy()
+    rattler[movers] = False
+    slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+    keys = []
+    taken = np.zeros(len(pi), dtype=bool)
+    for q in movers:
+        rows = np.flatnonzero(((pi == q) | (pj == q)) & ~rattler[pi] & ~rattler[pj] & ~taken)
+        if rows.size < dim:
+            return None
+        best = rows[np.argsort(slack[rows], kind="stable")[:dim]]
+        taken[best] = True
+        keys.append(pi[best].astype(np.int64) * n + pj[best])
+    return np.concatenate(keys), rattler
+
+
+def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
+                  feasibility, max_pivots, rattler_s, fixed, why, stuck):
+    """One attempt of :func:`solve_active_set`; when only the rattlers' placement fails, ``stuck`` receives the
+    vertex (``s``, ``inflation``) and the rattlers still in violated rows (``rattlers``)."""
     from scipy.sparse import csr_matrix
 
     t0 = time.perf_counter()
@@ -227,6 +298,10 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     held = s_fixed[index] != 0.0
     if np.any(held):  # a held component moves to the right-hand side
         rhs = rhs - np.bincount(row_id[held], weights=value[held] * s_fixed[index][held], minlength=rhs.size)
+    # the bounds of the unknowns as rows too (s_c <= s_bound, -s_c <= s_bound, Gamma within its bounds, after the
+    # pair rows), so that a bound a pivot runs into enters the basis like a contact (docs §5.4)
+    m_pair = stable_rows.size
+    a_all, rhs = _with_bound_rows(a_all, rhs, nu, s_bound, inflation_bounds)
     key = pi[stable_rows] * n + pj[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
     if basis.size != nu:  # a predicted contact left the cutoff or involves a particle that is now a rattler
@@ -239,34 +314,43 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         binv = BasisInverse(a_all, basis)
     except RuntimeError:
         return _fail(why, "singular contact system")
+    # rows violated while duals are negative too: their right-hand side is relaxed so that the vertex is feasible,
+    # primal pivots optimise that relaxed LP, then the relaxation is removed and dual pivots (the duals are >= 0 by
+    # then) restore those rows (a composite primal-dual simplex, docs §5.4)
+    relax = np.zeros(rhs.size)
+    relaxed = bound_pivots = 0  # for the method string: how the vertex was reached
     for pivot in range(max_pivots + 1):
-        u = binv.solve(rhs[basis])
+        b = rhs + relax
+        u = binv.solve(b[basis])
         lam = binv.solve_transposed(e_inflation)
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):
             return _fail(why, f"non-finite solution after {pivot} pivots")
-        slack = rhs - a_all @ u
-        lo, hi = inflation_bounds
-        if np.max(np.abs(u[:-1]), initial=0.0) > s_bound or not (lo - 1e-13 <= u[-1] <= hi):
-            return _fail(why, f"an s or Gamma bound is violated after {pivot} pivots")
+        slack = b - a_all @ u
         slack[basis] = 0.0
         r = int(np.argmin(slack))
         if slack[r] < -feasibility:
             # a predicted vertex beyond some other row (a degenerate interior point ranks a few rows wrongly): dual
             # simplex pivots while the duals are feasible, the most violated row entering
             violated = int(np.count_nonzero(slack < -feasibility))
-            if np.min(lam) < 0.0:
-                return _fail(why, f"the vertex after {pivot} pivots violates {violated} other rows (worst "
-                                  f"{slack[r]:.1e}) and {int(np.count_nonzero(lam < 0.0))} duals are negative")
+            zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+            if np.min(lam) < -zero:
+                bad = slack < -feasibility
+                relax[bad] -= 2.0 * slack[bad]  # the row then has slack |violation| > 0, not a degenerate block
+                relaxed += int(np.count_nonzero(bad))
+                slack[bad] = -slack[bad]
+        if slack[r] < -feasibility and not np.any(relax):
             if pivot == max_pivots:
                 return _fail(why, f"{violated} rows still violated after {max_pivots} pivots")
             # leaving row k: Gamma falls by lam_k per unit of row k's slack, row r closes at alpha_k per unit
             alpha = binv.solve_transposed(a_all[r].toarray().ravel())
-            candidates = np.flatnonzero(alpha > 1e-14)
+            # a tiny alpha_k would make the new basis (nearly) singular
+            candidates = np.flatnonzero(alpha > max(1e-14, 1e-9 * float(np.max(np.abs(alpha)))))
             if candidates.size == 0:
                 return _fail(why, f"a violated row cannot be satisfied after {pivot} pivots: the LP looks infeasible")
             k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
             try:
                 binv.replace(k, r)
+                bound_pivots += r >= m_pair
             except RuntimeError:
                 return _fail(why, f"singular contact system after {pivot + 1} pivots")
             continue
@@ -275,6 +359,9 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         # optimum, which no pivot improves
         zero = DUAL_ZERO * float(np.median(np.abs(lam)))
         if lam[k] >= -zero:
+            if np.any(relax):  # the relaxed LP is optimal: back to the true rows, dual pivots from here
+                relax[:] = 0.0
+                continue
             break
         if pivot >= BLAND_AFTER:  # a degenerate vertex can cycle: Bland's rule, the lowest row index leaves
             negative = np.flatnonzero(lam < -zero)
@@ -293,17 +380,18 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
             return _fail(why, f"an unbounded edge after {pivot} pivots")
         ratios = np.maximum(slack[blocking], 0.0) / rate[blocking]
         j = int(np.argmin(ratios))  # ties: the lowest row index (blocking is sorted), as Bland's rule wants
-        step = ratios[j]
-        if np.max(np.abs(u[:-1] + step * d[:-1]), initial=0.0) > s_bound:
-            return _fail(why, f"an s bound blocks pivot {pivot + 1}")
         try:
             binv.replace(k, blocking[j], column=-d)
+            bound_pivots += blocking[j] >= m_pair
         except RuntimeError:
             return _fail(why, f"singular contact system after {pivot + 1} pivots")
+    else:
+        return _fail(why, f"relaxed rows not restored after {max_pivots} pivots")
     if np.any(held):
         # bound multipliers: mu = -(A^T lambda)_j at an upper bound, +(A^T lambda)_j at a lower one, both >= 0
         row_lam = np.zeros(stable_rows.size)
-        row_lam[basis] = lam
+        pair = basis < m_pair
+        row_lam[basis[pair]] = lam[pair]
         at = np.zeros(n * dim + 1)
         np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
         comps = np.flatnonzero(fixed.ravel())
@@ -312,10 +400,11 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     inflation = max(float(u[-1]), inflation_bounds[0])
     s = np.zeros((n, dim)) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
     s[pinned] = 0.0
-    s.ravel()[free_comp] = u[:-1]
+    s.ravel()[free_comp] = np.clip(u[:-1], -s_bound, s_bound)  # round-off of an active bound row
     s[fixed != 0] = fixed[fixed != 0] * float(s_bound)
+    pair = basis < m_pair
     active = np.zeros(len(pi), dtype=bool)
-    active[stable_rows[basis]] = True
+    active[stable_rows[basis[pair]]] = True
     # every row of the LP: |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 >= 0. Rattlers (columns without active rows)
     # may be pushed away from a neighbour their cage wall has come to touch; this keeps the solution optimal.
     for _ in range(20):
@@ -333,10 +422,16 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
                 s[pj[k]] -= push * rij[k]
     else:  # a rattler pushed back and forth in a tight cage: place the rattlers by a small feasibility LP
         if not _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, 2.0 * feasibility):
+            slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+            bad = (slack < feasibility) & ~active
+            stuck.update(s=s, inflation=inflation,
+                         rattlers=np.unique(np.concatenate([pi[bad & rattler[pi]], pj[bad & rattler[pj]]])))
             return _fail(why, "no feasible place for the rattlers at the vertex")
         slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
     if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
         return _fail(why, "a row or an s bound is violated at the vertex")
     duals = np.zeros(len(pi))
-    duals[stable_rows[basis]] = np.maximum(lam, 0.0)
-    return LPSolution(s, inflation, duals, time.perf_counter() - t0, f"active-set+{pivot}")
+    duals[stable_rows[basis[pair]]] = np.maximum(lam[pair], 0.0)
+    method = f"active-set+{pivot}" + (f"+{relaxed}relaxed" if relaxed else "") + (
+        f"+{bound_pivots}bounds" if bound_pivots else "")
+    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method)

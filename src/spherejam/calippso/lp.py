@@ -17,6 +17,7 @@ from ..core.errors import InputError, SimulationError, require
 from ..core.validation import LP_SOLVERS
 from .active_set import MAX_PIVOTS, interior_point_prediction, solve_active_set
 from .constraints import constraint_rows, particle_force_sums, row_excess
+from .highs import highs_model
 from .solution import LPBasis, LPSolution
 
 #: The HiGHS solvers an LP can be sent to: HiPO (sparse-direct interior point, needs highspy-extras), IPX
@@ -105,24 +106,6 @@ def _highs_options(tolerance: float, extra: dict[str, Any] | None, solver: str =
     }
     opts.update(extra or {})
     return opts
-
-
-
-def highs_model(cost, col_lower, col_upper, row_lower, row_upper, start, index, value):
-    """A HiGHS LP (minimise cost . x, row_lower <= A x <= row_upper, col bounds) with A given row-wise (CSR
-    ``start``, ``index``, ``value``); infinite bounds become HiGHS's infinity."""
-    import highspy
-
-    inf = highspy.kHighsInf
-    lp = highspy.HighsLp()
-    lp.num_col_, lp.num_row_ = len(cost), len(row_upper)
-    lp.col_cost_ = np.asarray(cost, dtype=float)
-    lp.col_lower_, lp.col_upper_ = np.clip(col_lower, -inf, inf), np.clip(col_upper, -inf, inf)
-    lp.row_lower_, lp.row_upper_ = np.clip(row_lower, -inf, inf), np.clip(row_upper, -inf, inf)
-    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-    lp.a_matrix_.num_col_, lp.a_matrix_.num_row_ = len(cost), len(row_upper)
-    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = start, index, value
-    return lp
 
 
 _BASIC = 1  # HighsBasisStatus.kBasic
@@ -322,7 +305,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             if problem is None:
                 vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
-                vertex.method = "vertex+" + vertex.method.split("+")[1]  # + its pivots
+                vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
                 return vertex
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
             continue

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..analysis.contacts import rattler_mask
+from ..core.rattlers import rattler_mask
 from ..core.neighbours import pairs_within
 from .constraints import particle_force_sums
 

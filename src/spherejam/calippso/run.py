@@ -24,19 +24,19 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis import distributions
 from ..core import interrupt
 from ..core.checkpoint import Checkpoint, fingerprint
 from ..core.errors import OverlapError, SimulationError, require
+from ..core.history import History
 from ..core.neighbours import pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
-from ..engines.driver import History, Progress
+from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set
 from .constraints import pair_vectors, pairs_in_cutoff
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .network import contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
-from .solution import LPBasis, METHOD_CODES, SOLVER_CODES
+from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
 
 _log = logging.getLogger("spherejam")
 
@@ -70,7 +70,9 @@ class CalippsoResult:
         diameter), ``max_displacement_all``, ``phi``, ``n_constraints``, ``solve_time`` (s), ``cpu_time`` (CPU s of
         this process for the LP, incl. a failed active-set attempt: the figure to compare on a busy machine),
         ``cutoff`` and ``s_bound`` (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`),
-        ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``.
+        ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``,
+        ``contact_changes`` (contacts among non-rattlers gained or lost since the previous LP; -1 for the first),
+        ``bound_active`` (s components of non-rattlers at their bound).
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, docs §3).
     forces : (K,) float array
@@ -149,9 +151,9 @@ class CalippsoResult:
         }
 
 
-#: name -> (long_name, units) of the scalars of a CALiPPSO summary file: :meth:`CalippsoResult.summary` and, for a
-#: converged run, the fitted exponents of :func:`spherejam.analysis.distributions.distributions` (the dataset
-#: prefixes them with ``calippso_``).
+#: name -> (long_name, units) of the scalars of :meth:`CalippsoResult.summary`. A CALiPPSO summary file adds, for a
+#: converged run, the fitted exponents of the analysis layer (``spherejam.analysis.distributions.VARIABLES``); the
+#: dataset prefixes both with ``calippso_``.
 VARIABLES: dict[str, tuple[str, str]] = {
     "phi": ("packing fraction of the CALiPPSO-jammed packing", "1"),
     "delta_phi": ("packing fraction change, CALiPPSO minus input (MLS)", "1"),
@@ -164,7 +166,6 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "n_stable": ("non-rattlers N_s", "1"),
     "isostatic_excess": ("N_c - (d (N_s - 1) + 1)", "1"),
     "wall_time": ("wall time of the CALiPPSO run", "s"),
-    **distributions.VARIABLES,
 }
 
 
@@ -316,119 +317,67 @@ def run_calippso(
         "solver": solver, "threads": int(threads), "crossover": bool(crossover),
         "highs_version": highs_version(),
     }
-    warm_start = warm_start and n < WARM_START_MAX_N  # no basis is kept either: the force LP starts cold too
+    cfg = _Settings(
+        n=n, dim=dim, box=box, cutoff0=cutoff0, s_bound=s_bound, regime_thresholds=tuple(regime_thresholds),
+        zero_force=zero_force, solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver,
+        threads=int(threads), crossover=bool(crossover), active_set=bool(active_set),
+        warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
+    )
 
     history = History()
     loop = _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation), pinned=initial_pin(x, dia, box))
     iteration = 0
-    converged = False
-    lp_time = 0.0
-    lp_cpu_time = 0.0  # this call's, not resumed from a checkpoint
-    methods: dict[str, int] = {}
-    solvers: dict[str, int] = {}  # LPs per HiGHS solver ("none": active set alone), incl. the force LP
-    warm_attempts = 0
+    tally = _Tally()
     ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, {
         k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}), checkpoint_interval)
     resumed = ckpt.resume()
     if resumed is not None:
         arrays, attrs, rows = resumed
         x, dia = arrays["positions"], arrays["diameters"]
-        iteration, lp_time = attrs["iteration"], attrs["lp_time"]
+        iteration, tally.lp_time = attrs["iteration"], attrs["lp_time"]
         loop = _LoopState.restore(arrays, attrs)
         history = History(rows)
     progress = Progress(f"calippso N={n} d={dim}", progress_interval)
-    last = None  # (rij, sigma2, pi, pj, solution, rattler) of the latest LP
+    last = None  # (the LP, its solution, its rattlers) of the latest main-loop LP
+    converged = False
 
     while iteration < max_iterations:
-        R = 0.5 * float(dia.max())
-        ell, sb, inflation_max, regime = step_limits(
-            loop.sqrt_inflation_prev, R, cutoff0, dim, box, regime_thresholds,
-            None if s_bound is None else s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit)
-        pi, pj, _ = pairs_in_cutoff(x, box, ell)
-        rij = pair_vectors(x, box, pi, pj)
-        sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
-        sol = None
+        lp = _schedule(x, dia, loop, cfg)
         cpu0 = time.process_time()
-        # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
-        # shortcut only when there is no basis to start from
-        if loop.predicted is not None and (loop.basis is None or regime == 1):
-            t_try = time.perf_counter()
-            why: list[str] = []
-            sol = solve_active_set(rij, sigma2, pi, pj, n, *loop.predicted, s_bound=sb, pinned=loop.pinned,
-                                   inflation_bounds=(1.0, inflation_max), why=why,
-                                   max_pivots=MAX_PIVOTS if loop.basis is None else None)
-            if sol is None:
-                lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
-                _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
-                           iteration + 1, "; ".join(why))
-        if sol is None:
-            warm = loop.basis if regime > 1 and loop.warm_skip == 0 else None
-            loop.warm_skip = max(loop.warm_skip - 1, 0)
-            sol = solve_lp(rij, sigma2, pi, pj, n, s_bound=sb, pinned=loop.pinned,
-                           inflation_bounds=(1.0, inflation_max), tolerance=solver_tolerance,
-                           options=solver_options, iteration=iteration, warm=warm, solver=solver, threads=threads,
-                           crossover=crossover)
-            loop.basis = sol.basis if warm_start else None
-            if warm is not None:  # after k failed warm starts in a row the next 2^k - 1 LPs skip it (docs §5.3)
-                warm_attempts += 1
-                loop.warm_failures = 0 if sol.method == "warm" else loop.warm_failures + 1
-                loop.warm_skip = 2**loop.warm_failures - 1
+        sol = _solve(lp, loop, cfg, tally, iteration)
         iteration += 1
         lp_cpu = time.process_time() - cpu0
-        lp_cpu_time += lp_cpu
-        lp_time += sol.solve_time
-        methods[sol.method_name] = methods.get(sol.method_name, 0) + 1
-        solvers[sol.solver] = solvers.get(sol.solver, 0) + 1
-        contact, rattler, n_contacts, isostatic, _ = contact_network(rij, sigma2, pi, pj, sol.duals, n, dim,
-                                                                     zero_force)
-        loop.predicted = network_prediction(contact, rattler, pi, pj, n) if active_set and isostatic else None
-        sqrt_inflation = math.sqrt(max(sol.inflation, 1.0))
-        # step: move, inflate, and make sure round-off in the solver left no overlap (docs §1.8)
-        x = np.mod(x + sol.s, box)
-        dia = dia * sqrt_inflation
-        h_min = _closest_h(x, dia, box)
-        correction = 0.0
-        if h_min < 1.0:
-            correction = 1.0 - h_min
-            if correction > MAX_OVERLAP_CORRECTION:
-                raise SimulationError(
-                    f"CALiPPSO iteration {iteration}: the LP step overlaps by {correction:.3e} (relative); "
-                    "the linearised constraints or the cutoff were violated"
-                )
-            dia = dia * h_min
-            sqrt_inflation *= h_min
-        moving = ~rattler if np.any(~rattler) else np.ones(n, dtype=bool)
-        max_s = float(np.max(np.abs(sol.s[moving]))) / float(dia.max())
-        max_s_all = float(np.max(np.abs(sol.s))) / float(dia.max())
+        tally.count(sol, lp_cpu)
+        contact, rattler, n_contacts, isostatic, changes = _check(lp, sol, loop, cfg)
+        at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
+        x, dia, sqrt_inflation, correction = _step(x, dia, sol, box, iteration)
+        max_s, max_s_all = _largest_displacements(sol.s, rattler, dia)
         phi = _phi(dia, box, dim)
         history.append(
             sqrt_inflation_minus_1=sqrt_inflation - 1.0, max_displacement=max_s, max_displacement_all=max_s_all,
-            phi=phi, n_constraints=len(pi), solve_time=sol.solve_time, cpu_time=lp_cpu, cutoff=ell / dia.max(),
-            s_bound=sb / dia.max(), regime=regime, method=METHOD_CODES[sol.method_name],
-            solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts, n_rattlers=int(np.count_nonzero(rattler)),
-            isostatic=int(isostatic), overlap_correction=correction,
+            phi=phi, n_constraints=len(lp.pi), solve_time=sol.solve_time, cpu_time=lp_cpu,
+            cutoff=lp.ell / dia.max(), s_bound=lp.s_bound / dia.max(), regime=lp.regime,
+            method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
+            n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
+            contact_changes=changes, bound_active=at_bound,
         )
         progress.update(
             f"it {iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
-            f"rows {len(pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
-            f"LP {sol.solve_time:.2f} s ({sol.method}, {sol.solver})",
+            f"rows {len(lp.pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
+            f"LP {sol.solve_time:.2f} s, CPU {lp_cpu:.2f} s ({sol.method}, {sol.solver})",
             fields={"LP": iteration, "√Γ-1": sqrt_inflation - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
         )
         if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
             _log.info("calippso it %d solved by %s after: %s", iteration, sol.method, sol.failed)
-        last = (rij, sigma2, pi, pj, sol, rattler)
-        loop.bound_hit = bool(np.any(~rattler)) and float(np.max(np.abs(sol.s[~rattler]))) >= (1.0 - 1e-9) * sb
-        loop.prev_s_bound = sb
-        loop.sqrt_inflation_prev = sqrt_inflation
-        if rattler[loop.pinned] and np.any(~rattler):  # docs §1.7
-            loop.pinned = repin(contact, pi, pj, rattler, n)
-        if sqrt_inflation - 1.0 <= inflation_tolerance and max_s <= displacement_tolerance:
+        last = (lp, sol, rattler)
+        _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation)
+        if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             converged = True
             break
         if ckpt.due():
-            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, lp_time), history.as_arrays())
+            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
         if interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
-            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, lp_time), history.as_arrays())
+            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
             interrupt.stop(checkpoint, f"after {iteration} iterations")
 
     if not converged and require_convergence:
@@ -436,51 +385,15 @@ def run_calippso(
                               f"(last sqrt(Gamma)-1 = {history.last('sqrt_inflation_minus_1'):.3e}, "
                               f"max|s| = {history.last('max_displacement'):.3e})")
 
-    # forces: one more LP at the final configuration, nothing moves (docs §2.3)
-    fine_tuned = False
-    fine_inflation = math.nan
-    R = 0.5 * float(dia.max())
-    ell = cutoff_and_bound(1.0, R, cutoff0, dim, box, regime_thresholds)[0]  # the final regime's cutoff
-    pi, pj, _ = pairs_in_cutoff(x, box, ell)
-    rij = pair_vectors(x, box, pi, pj)
-    sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
-    duals = None
-    cpu0 = time.process_time()
-    if fine_tune:
-        try:
-            fine = None
-            if loop.predicted is not None:
-                fine = solve_active_set(rij, sigma2, pi, pj, n, *loop.predicted, s_bound=R, pinned=loop.pinned,
-                                        inflation_bounds=(-math.inf, math.inf),
-                                        max_pivots=MAX_PIVOTS if loop.basis is None else None)
-            if fine is None:
-                fine = solve_lp(rij, sigma2, pi, pj, n, s_bound=R, pinned=loop.pinned,
-                                inflation_bounds=(-math.inf, math.inf), tolerance=solver_tolerance,
-                                options=solver_options, iteration=iteration + 1, warm=loop.basis, solver=solver,
-                                threads=threads, crossover=crossover)
-            methods[fine.method_name] = methods.get(fine.method_name, 0) + 1
-            solvers[fine.solver] = solvers.get(fine.solver, 0) + 1
-            lp_time += fine.solve_time
-            duals = fine.duals
-            fine_inflation = fine.inflation
-            fine_tuned = True
-        except SimulationError:
-            duals = None
-    lp_cpu_time += time.process_time() - cpu0
-    if duals is None:
-        if last is None:
-            raise SimulationError("CALiPPSO: no LP solved (checkpoint already at max_iterations?)")
-        # the main loop's last LP: its pair vectors are at the positions before the last (tiny) step
-        rij, sigma2, pi, pj, sol, _ = last
-        duals = sol.duals
-    contact, rattler, n_contacts, isostatic, residual = contact_network(rij, sigma2, pi, pj, duals, n, dim,
-                                                                        zero_force)
-    stable_pair = contact & ~rattler[pi] & ~rattler[pj]
-    r_norm = np.linalg.norm(rij, axis=1)
+    lp, duals, fine_tuned, fine_inflation = _force_lp(x, dia, loop, cfg, tally, iteration, fine_tune, last)
+    contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, n,
+                                                                        dim, zero_force)
+    stable_pair = contact & ~rattler[lp.pi] & ~rattler[lp.pj]
+    r_norm = np.linalg.norm(lp.rij, axis=1)
     f = duals[stable_pair] * r_norm[stable_pair]
     forces = f / f.mean() if f.size else f
-    pairs = np.stack([pi[stable_pair], pj[stable_pair]], axis=1)
-    vectors = rij[stable_pair] / r_norm[stable_pair, None]
+    pairs = np.stack([lp.pi[stable_pair], lp.pj[stable_pair]], axis=1)
+    vectors = lp.rij[stable_pair] / r_norm[stable_pair, None]
     gaps, gap_pairs = near_gaps(x, dia, box, gap_range, rattler, pairs, n)
 
     out = Packing(
@@ -497,9 +410,10 @@ def run_calippso(
     wall = time.perf_counter() - wall0
     stop_reason = "converged" if converged else "max_iterations"
     counters = {
-        "iterations": iteration, "stop_reason": stop_reason, "converged": converged, "lp_time": lp_time,
-        "lp_cpu_time": lp_cpu_time, "wall_time": wall,
-        "lp_methods": methods, "lp_solvers": solvers, "warm_attempts": warm_attempts, "fine_tuned": fine_tuned,
+        "iterations": iteration, "stop_reason": stop_reason, "converged": converged, "lp_time": tally.lp_time,
+        "lp_cpu_time": tally.lp_cpu_time, "wall_time": wall,
+        "lp_methods": tally.methods, "lp_solvers": tally.solvers, "warm_attempts": tally.warm_attempts,
+        "fine_tuned": fine_tuned,
         "fine_tune_sqrt_inflation_minus_1": math.sqrt(fine_inflation) - 1.0 if fine_inflation > 0 else math.nan,
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
@@ -509,13 +423,204 @@ def run_calippso(
     if converged:
         ckpt.discard()
     else:  # a later call with a larger max_iterations continues from here
-        ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, lp_time), history.as_arrays())
+        ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
     return CalippsoResult(
         packing=out, stop_reason=stop_reason, iterations=iteration, history=history.as_arrays(), pairs=pairs,
         forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts, isostatic=isostatic,
         force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial, wall_time=wall,
         fine_tuned=fine_tuned, counters=counters,
     )
+
+
+# --- the steps of one iteration: schedule, solve, check, step, converge (docs §1-§2) ---------------------------------
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The run's fixed choices, in the driver's units (lengths in initial largest diameters)."""
+
+    n: int
+    dim: int
+    box: float
+    cutoff0: float  # l0
+    s_bound: float | None  # a fixed bound in units of the current largest diameter (None: the regimes)
+    regime_thresholds: tuple[float, float]
+    zero_force: float
+    solver_tolerance: float
+    solver_options: dict[str, Any] | None
+    solver: str
+    threads: int
+    crossover: bool
+    active_set: bool
+    warm_start: bool
+
+
+@dataclass
+class _LP:
+    """One iteration's LP: its limits (docs §1.3-§1.5) and its pair rows (docs §1.1)."""
+
+    ell: float  # cutoff l
+    s_bound: float  # per-component bound
+    inflation_max: float  # Gamma_max (docs §1.4)
+    regime: int
+    pi: np.ndarray
+    pj: np.ndarray
+    rij: np.ndarray
+    sigma2: np.ndarray
+
+
+@dataclass
+class _Tally:
+    """LP counts and times of this call (lp_time is carried over by a checkpoint, the CPU time is not)."""
+
+    lp_time: float = 0.0
+    lp_cpu_time: float = 0.0
+    methods: dict[str, int] = field(default_factory=dict)
+    solvers: dict[str, int] = field(default_factory=dict)  # "none": active set alone; incl. the force LP
+    warm_attempts: int = 0
+
+    def count(self, sol, cpu: float) -> None:
+        self.lp_cpu_time += cpu
+        self.lp_time += sol.solve_time
+        self.methods[sol.method_name] = self.methods.get(sol.method_name, 0) + 1
+        self.solvers[sol.solver] = self.solvers.get(sol.solver, 0) + 1
+
+
+def _rows(x, dia, box, ell, s_bound=0.0, inflation_max=0.0, regime=0) -> _LP:
+    pi, pj, _ = pairs_in_cutoff(x, box, ell)
+    rij = pair_vectors(x, box, pi, pj)
+    sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
+    return _LP(ell, s_bound, inflation_max, regime, pi, pj, rij, sigma2)
+
+
+def _schedule(x, dia, loop, cfg: _Settings) -> _LP:
+    """Schedule: the cutoff, s bound and Gamma_max from the previous LP (docs §1.3-§1.6), and the LP's rows."""
+    R = 0.5 * float(dia.max())
+    ell, sb, inflation_max, regime = step_limits(
+        loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds,
+        None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit)
+    return _rows(x, dia, cfg.box, ell, sb, inflation_max, regime)
+
+
+def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSolution:
+    """Solve: the previous contact network certified by the active-set solve where no warm start is at hand
+    (docs §5.4), else HiGHS, warm-started from the previous basis with a back-off after failures (docs §5.1-§5.3)."""
+    sol = None
+    # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
+    # shortcut only when there is no basis to start from
+    if loop.predicted is not None and (loop.basis is None or lp.regime == 1):
+        t_try = time.perf_counter()
+        why: list[str] = []
+        sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted, s_bound=lp.s_bound,
+                               pinned=loop.pinned, inflation_bounds=(1.0, lp.inflation_max), why=why,
+                               max_pivots=MAX_PIVOTS if loop.basis is None else None)
+        if sol is None:
+            tally.lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
+            _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
+                      iteration + 1, "; ".join(why))
+    if sol is None:
+        warm = loop.basis if lp.regime > 1 and loop.warm_skip == 0 else None
+        loop.warm_skip = max(loop.warm_skip - 1, 0)
+        sol = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
+                       inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
+                       options=cfg.solver_options, iteration=iteration, warm=warm, solver=cfg.solver,
+                       threads=cfg.threads, crossover=cfg.crossover)
+        loop.basis = sol.basis if cfg.warm_start else None
+        if warm is not None:  # after k failed warm starts in a row the next 2^k - 1 LPs skip it (docs §5.3)
+            tally.warm_attempts += 1
+            loop.warm_failures = 0 if sol.method == "warm" else loop.warm_failures + 1
+            loop.warm_skip = 2**loop.warm_failures - 1
+    return sol
+
+
+def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
+    """Check: the contact network of the LP's duals (docs §3); an isostatic one predicts the next LP's vertex
+    (docs §5.4). Returns ``(contact mask, rattler mask, n_contacts, isostatic, contact changes)``, the last the
+    contacts among non-rattlers gained or lost since the previous LP (-1 for the first)."""
+    contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.n,
+                                                                 cfg.dim, cfg.zero_force)
+    network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
+    loop.predicted = network if cfg.active_set and isostatic else None
+    changes = -1 if loop.contacts is None else int(np.setxor1d(loop.contacts, network[0], assume_unique=True).size)
+    loop.contacts = network[0]
+    return contact, rattler, n_contacts, isostatic, changes
+
+
+def _step(x, dia, sol: LPSolution, box: float, iteration: int):
+    """Step: move, inflate, and make sure round-off in the solver left no overlap (docs §1.1, §1.8).
+
+    Returns ``(positions, diameters, sqrt(Gamma) as applied, overlap correction)``."""
+    sqrt_inflation = math.sqrt(max(sol.inflation, 1.0))
+    x = np.mod(x + sol.s, box)
+    dia = dia * sqrt_inflation
+    h_min = _closest_h(x, dia, box)
+    correction = 0.0
+    if h_min < 1.0:
+        correction = 1.0 - h_min
+        if correction > MAX_OVERLAP_CORRECTION:
+            raise SimulationError(
+                f"CALiPPSO iteration {iteration}: the LP step overlaps by {correction:.3e} (relative); "
+                "the linearised constraints or the cutoff were violated"
+            )
+        dia = dia * h_min
+        sqrt_inflation *= h_min
+    return x, dia, sqrt_inflation, correction
+
+
+def _largest_displacements(s, rattler, dia) -> tuple[float, float]:
+    """max |s_{i,mu}| over non-rattlers (all particles if every one is a rattler) and over all particles, in units
+    of the current largest diameter."""
+    moving = ~rattler if np.any(~rattler) else np.ones(len(s), dtype=bool)
+    return (float(np.max(np.abs(s[moving]))) / float(dia.max()),
+            float(np.max(np.abs(s))) / float(dia.max()))
+
+
+def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: float) -> None:
+    """What the next iteration's schedule needs from this one: a stable particle at its bound (docs §1.5), the
+    bound, sqrt(Gamma), and the pinned particle (docs §1.7)."""
+    loop.bound_hit = at_bound > 0
+    loop.prev_s_bound = lp.s_bound
+    loop.sqrt_inflation_prev = sqrt_inflation
+    if rattler[loop.pinned] and np.any(~rattler):
+        loop.pinned = repin(contact, lp.pi, lp.pj, rattler, len(rattler))
+
+
+def _converged(sqrt_inflation: float, max_s: float, inflation_tolerance: float,
+               displacement_tolerance: float) -> bool:
+    """Converge: sqrt(Gamma) - 1 and the largest displacement of a non-rattler both within tolerance (docs §2.1)."""
+    return sqrt_inflation - 1.0 <= inflation_tolerance and max_s <= displacement_tolerance
+
+
+def _force_lp(x, dia, loop, cfg: _Settings, tally: _Tally, iteration: int, fine_tune: bool, last):
+    """The forces: one more LP at the final configuration, s bounded by R only and Gamma free; nothing moves
+    (docs §2.3). Returns ``(the LP, its duals, fine_tuned, its Gamma)``; without it (``fine_tune`` off, or it
+    failed) the last main-loop LP and its duals."""
+    R = 0.5 * float(dia.max())
+    ell = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds)[0]  # the final cutoff
+    lp = _rows(x, dia, cfg.box, ell)
+    cpu0 = time.process_time()
+    if fine_tune:
+        try:
+            fine = None
+            if loop.predicted is not None:
+                fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted, s_bound=R,
+                                        pinned=loop.pinned, inflation_bounds=(-math.inf, math.inf),
+                                        max_pivots=MAX_PIVOTS if loop.basis is None else None)
+            if fine is None:
+                fine = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=R, pinned=loop.pinned,
+                                inflation_bounds=(-math.inf, math.inf), tolerance=cfg.solver_tolerance,
+                                options=cfg.solver_options, iteration=iteration + 1, warm=loop.basis,
+                                solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover)
+            tally.count(fine, time.process_time() - cpu0)
+            return lp, fine.duals, True, fine.inflation
+        except SimulationError:
+            pass
+    tally.lp_cpu_time += time.process_time() - cpu0
+    if last is None:
+        raise SimulationError("CALiPPSO: no LP solved (checkpoint already at max_iterations?)")
+    # the main loop's last LP: its pair vectors are at the positions before the last (tiny) step
+    lp, sol, _ = last
+    return lp, sol.duals, False, math.nan
 
 
 # --- helpers ----------------------------------------------------------------------------------------------------------
@@ -534,6 +639,7 @@ class _LoopState:
     basis: LPBasis | None = None  # HiGHS basis of the last HiGHS-solved LP, the next one's warm start
     warm_failures: int = 0  # failed warm starts in a row
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
+    contacts: np.ndarray | None = None  # contact keys among non-rattlers of the last LP (history's contact_changes)
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
@@ -541,6 +647,8 @@ class _LoopState:
             out.update(predicted_keys=self.predicted[0], predicted_rattlers=self.predicted[1])
         if self.basis is not None:
             out.update(basis_keys=self.basis.keys, basis_rows=self.basis.rows, basis_cols=self.basis.cols)
+        if self.contacts is not None:
+            out.update(contact_keys=self.contacts)
         return out
 
     def attrs(self, iteration: int, lp_time: float) -> dict[str, Any]:
@@ -557,7 +665,8 @@ class _LoopState:
         if "basis_keys" in arrays:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
-                   bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]))
+                   bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
+                   arrays.get("contact_keys"))
 
 
 def _phi(dia, box, dim) -> float:

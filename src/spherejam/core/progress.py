@@ -1,6 +1,6 @@
 """Live progress of long runs: one status line on a terminal, the periodic log lines elsewhere.
 
-The engines report through :class:`spherejam.engines.driver.Progress` only. Each update carries the log message
+The engines and CALiPPSO report through :class:`Progress` only. Each update carries the log message
 and, for the live line, named values (``fields``) and an optional bar (fraction in [0, 1] and its caption). Inside
 :func:`live_status` with a terminal on stderr the values go to a ``rich`` status line redrawn a few times a second
 and the periodic log lines are dropped (the forced ones, such as "done", still print, above the line); without a
@@ -14,8 +14,11 @@ import logging
 import math
 import os
 import sys
+import time
 from collections.abc import Mapping
 from typing import Any
+
+_log = logging.getLogger("spherejam")
 
 #: Redraws per second of the status line (the engines update it after every window or iteration).
 REFRESH_PER_SECOND = 4
@@ -130,3 +133,31 @@ def rate(count: float, seconds: float) -> float:
     """``count`` per second, 0 before any time has passed."""
     return count / seconds if seconds > 0 else 0.0
 
+
+class Progress:
+    """Progress of a run: a log line (to the ``spherejam`` logger) at most every ``interval`` seconds, or, on a
+    terminal, the live status line of :mod:`spherejam.core.progress` fed with every update's ``fields`` and ``bar``."""
+
+    def __init__(self, label: str, interval: float = 10.0):
+        self.label = label
+        self.interval = interval
+        self.start = time.perf_counter()
+        self._last = -float("inf")
+
+    @property
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.start
+
+    def update(self, message: str, force: bool = False, fields: dict[str, Any] | None = None,
+               bar: tuple[float, str] | None = None) -> None:
+        """Report ``message``; ``fields`` (name -> value) and ``bar`` (fraction in [0, 1], caption) are what the
+        live status line shows. Updates without fields always go to the log."""
+        line = current() if fields is not None else None
+        if line is not None:
+            line.show(self.label, self.elapsed, fields, bar)
+            if not force:
+                return
+        now = time.perf_counter()
+        if force or now - self._last >= self.interval:
+            self._last = now
+            _log.info("%s [%7.1f s] %s", self.label, now - self.start, message)

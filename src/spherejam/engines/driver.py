@@ -24,50 +24,15 @@ from typing import Any
 
 import numpy as np
 
-from ..core import interrupt, progress
+from ..core import interrupt
+from ..core.history import History  # noqa: F401  (the engines import it from here)
+from ..core.progress import Progress
 from ..core.checkpoint import Checkpoint
 from ..core.validation import INTERVAL, SECONDS
 from ..core.packing import Packing
 from .result import RESUMABLE_STOPS, Extras, RunResult, RunStats, is_completed
 
 log = logging.getLogger("spherejam")
-
-
-class History:
-    """Rows of scalars appended once per window or iteration, returned as columns of numpy arrays.
-
-    With ``max_rows`` (and ``step`` naming the column that counts the steps) long runs are thinned: only rows whose
-    step is a multiple of ``stride`` are kept; once 2 * max_rows rows are held the stride doubles and the rows off
-    it are dropped. ``force=True`` keeps a row off the stride (the first and the last one)."""
-
-    def __init__(self, columns: dict[str, np.ndarray] | None = None, *, step: str | None = None,
-                 max_rows: int | None = None, stride: int = 1):
-        self._rows: dict[str, list] = {k: list(np.asarray(v).tolist()) for k, v in (columns or {}).items()}
-        self.step, self.max_rows, self.stride = step, max_rows, int(stride)
-
-    def append(self, force: bool = False, **row: Any) -> None:
-        if self._rows and set(row) != set(self._rows):
-            raise KeyError(f"history row has columns {sorted(row)}, expected {sorted(self._rows)}")
-        if self.max_rows is not None:
-            step = row[self.step]
-            if (not force and step % self.stride) or self.last(self.step) == step:
-                return
-        for key, value in row.items():
-            self._rows.setdefault(key, []).append(value)
-        if self.max_rows is not None and len(self) >= 2 * self.max_rows:
-            self.stride *= 2
-            keep = [i for i, s in enumerate(self._rows[self.step]) if s % self.stride == 0]
-            self._rows = {k: [v[i] for i in keep] for k, v in self._rows.items()}
-
-    def __len__(self) -> int:
-        return len(next(iter(self._rows.values()))) if self._rows else 0
-
-    def last(self, key: str, default=None):
-        col = self._rows.get(key)
-        return col[-1] if col else default
-
-    def as_arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v) for k, v in self._rows.items()}
 
 
 @dataclass(frozen=True)
@@ -216,32 +181,3 @@ def drive(stepper: Stepper, options: RunOptions, fingerprint: str,
     bar.update(f"done: phi={stats.phi_final:.6f} {stepper.step_name}s={stats.steps}{collisions} "
                f"wall={stats.wall_time:.1f} s ({stop})", force=True)
     return RunResult(packing=packing, history=stepper.history.as_arrays(), stats=stats)
-
-
-class Progress:
-    """Progress of a run: a log line (to the ``spherejam`` logger) at most every ``interval`` seconds, or, on a
-    terminal, the live status line of :mod:`spherejam.core.progress` fed with every update's ``fields`` and ``bar``."""
-
-    def __init__(self, label: str, interval: float = 10.0):
-        self.label = label
-        self.interval = interval
-        self.start = time.perf_counter()
-        self._last = -float("inf")
-
-    @property
-    def elapsed(self) -> float:
-        return time.perf_counter() - self.start
-
-    def update(self, message: str, force: bool = False, fields: dict[str, Any] | None = None,
-               bar: tuple[float, str] | None = None) -> None:
-        """Report ``message``; ``fields`` (name -> value) and ``bar`` (fraction in [0, 1], caption) are what the
-        live status line shows. Updates without fields always go to the log."""
-        line = progress.current() if fields is not None else None
-        if line is not None:
-            line.show(self.label, self.elapsed, fields, bar)
-            if not force:
-                return
-        now = time.perf_counter()
-        if force or now - self._last >= self.interval:
-            self._last = now
-            log.info("%s [%7.1f s] %s", self.label, now - self.start, message)

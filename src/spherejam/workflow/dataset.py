@@ -292,13 +292,15 @@ def _describe(ds, extra: dict[str, tuple[str, str]]) -> None:
 
 
 def _structure_variables() -> dict[str, tuple[str, str]]:
-    from ..analysis import structure
+    from ..analysis import distributions, structure
     from ..calippso import run as calippso
 
-    # CALiPPSO's names are prefixed in the dataset; unprefixed they would shadow the generated packing's ``phi``.
+    # CALiPPSO's names (its summary and, for a converged run, the fitted exponents) are prefixed in the dataset;
+    # unprefixed they would shadow the generated packing's ``phi``.
+    certificate = {**calippso.VARIABLES, **distributions.VARIABLES}
     return {
         **structure.VARIABLES,
-        **{f"calippso_{k}": (f"CALiPPSO: {name}", units) for k, (name, units) in calippso.VARIABLES.items()},
+        **{f"calippso_{k}": (f"CALiPPSO: {name}", units) for k, (name, units) in certificate.items()},
     }
 
 

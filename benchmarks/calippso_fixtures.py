@@ -1,0 +1,98 @@
+"""Build the CALiPPSO benchmark inputs (docs/calippso.md §9) as packing files; they are never committed.
+
+    python benchmarks/calippso_fixtures.py                  # all of them, smallest first, into benchmarks/fixtures/
+    python benchmarks/calippso_fixtures.py --only ls1024_p1e5 ls1024_p1e12
+    python benchmarks/calippso_fixtures.py --list           # names and recipes
+
+Each fixture is made by spherejam's Lubachevsky-Stillinger engine (d = 3) from a Poisson start, with the seed, the
+compression rate gamma and the stop pressure of its recipe, and written through core.atomic (a half-written file
+never appears). An existing file is kept, so an interrupted build continues with the next missing fixture; the LS run
+itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
+
+- ``ls1024_p1e5``: plain LS to p = 1e5 (the reference's example inputs are LS outputs at p = 1e5; a fast one,
+  whose true pressure is ~10 times lower: it creeps);
+- ``lsmls1024_p1e5``: the CALiPPSO.jl-style start, LS to p = 1e5 then the MLS loop with p_max = 1e5 (rates 1e-2 ->
+  1e-4), so that p = 1e5 is the packing's own pressure, as in the reference's example file (d phi_J / (p (phi_J -
+  phi0)) ~ 1; the default start of bench_calippso.py);
+- ``ls1024_p1e12``, ``ls1024_p1e12_s03``, ``ls2048_p1e12``: LS outputs at p = 1e12 (sigma = 0, 0.3, 0), the inputs
+  on which the new LP path's certificates are compared with today's;
+- ``ls10000_p1e12_s0``, ``ls10000_p1e12_s03``, ``ls16384_p1e12_s0``: LS outputs at p = 1e12 at the paper's N,
+  sigma = 0 and 0.3 (sigma: relative standard deviation of the diameters).
+
+A true MLS output at N = 1e4 (hours) is not among them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+#: name -> (N, sigma, LS rate gamma, stop pressure p, seed)
+FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
+    "ls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
+    "lsmls1024_p1e5": (1024, 0.0, 1e-2, 1e5, 1),
+    "ls1024_p1e12": (1024, 0.0, 1e-3, 1e12, 1),
+    "ls1024_p1e12_s03": (1024, 0.3, 1e-3, 1e12, 1),
+    "ls2048_p1e12": (2048, 0.0, 1e-3, 1e12, 1),
+    "ls10000_p1e12_s0": (10_000, 0.0, 1e-3, 1e12, 1),
+    # gamma = 1e-2: on a 2-core machine shared four ways, gamma = 1e-3 took ~50 min at N = 1e4
+    "ls10000_p1e12_s03": (10_000, 0.3, 1e-2, 1e12, 1),
+    "ls16384_p1e12_s0": (16_384, 0.0, 1e-2, 1e12, 1),
+}
+DEFAULT_DIR = Path(__file__).resolve().parent / "fixtures"
+
+
+def fixture_path(name: str, directory: Path = DEFAULT_DIR) -> Path:
+    return Path(directory) / f"{name}.h5"
+
+
+def build(name: str, directory: Path = DEFAULT_DIR) -> Path:
+    """Make fixture ``name`` unless its file exists; return the file."""
+    from spherejam.core.packing_io import write_packing
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.lubachevsky_stillinger import run_ls
+
+    path = fixture_path(name, directory)
+    if path.exists():
+        return path
+    n, sigma, rate, pressure, seed = FIXTURES[name]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    t = time.perf_counter()
+    result = run_ls(poisson_packing(n, sigma, seed, dim=3), rate, p_max=pressure, seed=seed,
+                    checkpoint=str(path) + ".ckpt", checkpoint_interval=120.0, progress_interval=60.0)
+    if name.startswith("lsmls"):
+        from spherejam.engines.closest_jamming import find_closest_jamming
+
+        result = find_closest_jamming(result.packing, initial_rate=rate, final_rate=1e-4, p_max=pressure, seed=seed,
+                                      progress_interval=60.0)
+    packing = result.packing
+    packing.metadata["fixture"] = name
+    write_packing(path, packing)
+    print(f"{name}: N={n} sigma={sigma} rate={rate:g} p={packing.metadata.get('reduced_pressure'):.3g} "
+          f"phi={packing.phi:.8f} in {time.perf_counter() - t:.0f} s -> {path}", flush=True)
+    return path
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="+", choices=sorted(FIXTURES), help="build only these")
+    ap.add_argument("--dir", type=Path, default=DEFAULT_DIR, help=f"output folder ({DEFAULT_DIR})")
+    ap.add_argument("--list", action="store_true", help="print the recipes and exit")
+    args = ap.parse_args(argv)
+    if args.list:
+        for name, (n, sigma, rate, p, seed) in FIXTURES.items():
+            state = "built" if fixture_path(name, args.dir).exists() else "missing"
+            print(f"{name:20s} N={n:6d} sigma={sigma:.1f} LS rate {rate:g} to p = {p:g}, seed {seed}: {state}")
+        return 0
+    import logging
+
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    for name in args.only or FIXTURES:
+        build(name, args.dir)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
