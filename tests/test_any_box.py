@@ -142,6 +142,18 @@ def test_two_spheres_jam_as_bcc(seed):
     assert v == pytest.approx([out.box**3 / 2] * 2, rel=1e-9)  # the two truncated-octahedron cells
 
 
+@pytest.mark.parametrize("seed", [0, 2])
+def test_mls_of_a_jammed_two_sphere_crystal_ends_jammed(seed):
+    """A fast LS already jams two spheres in the BCC crystal; MLS from there sees windows of collisions that take
+    no time (gaps below double resolution). That is an infinite pressure, not a stuck event loop (found by
+    benchmarks/stress.py: "40 events took no time")."""
+    ls = run_ls(poisson_packing(2, 0.0, seed=seed), 10.0, seed=seed, **QUIET).packing
+    assert ls.phi == pytest.approx(math.pi * math.sqrt(3) / 8, rel=1e-8)
+    out = find_closest_jamming(ls, initial_rate=10.0, final_rate=1e-2, seed=seed, **QUIET)
+    assert out.stats.stop_reason == "jammed"
+    assert out.packing.phi == pytest.approx(math.pi * math.sqrt(3) / 8, rel=1e-8)
+
+
 def test_bidisperse_one_to_ten_runs_at_n_500():
     """30 % small spheres by volume at a size ratio 1:10: one large sphere in 500, nearly as wide as the box."""
     n, ratio = 500, 10.0
