@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core import interrupt
-from ..core.history import History  # noqa: F401  (the engines import it from here)
+from ..core.history import History
 from ..core.progress import Progress
 from ..core.checkpoint import Checkpoint
 from ..core.validation import INTERVAL, SECONDS

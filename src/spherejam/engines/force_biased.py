@@ -38,9 +38,10 @@ import numpy as np
 from ..core import neighbours
 from ..core.checkpoint import fingerprint
 from ..core.errors import SimulationError, require
+from ..core.history import History
 from ..core.packing import Packing, ball_volume
 from ..core.progress import rate as per_second
-from .driver import History, RunOptions, Stepper, drive
+from .driver import RunOptions, Stepper, drive
 from .kernels import force_biased as kernels
 from .result import FBCounts, RunResult, RunStats
 

@@ -32,12 +32,13 @@ import numpy as np
 
 from ..core.checkpoint import fingerprint
 from ..core.errors import InputError, SimulationError, require
+from ..core.history import History
 from ..core.neighbours import cell_sort, cells_per_side, closest_pair
 from ..core.packing import Packing, ball_volume
 from ..core.progress import log_fraction
 from ..core.progress import rate as rate_of
 from ..core.validation import EVENTS_PER_PARTICLE
-from .driver import History, RunOptions, Stepper, drive
+from .driver import RunOptions, Stepper, drive
 from .kernels import event_driven as ed
 from .result import LSCounts, RunResult, RunStats
 
@@ -173,12 +174,11 @@ class LSEngine:
         self.multi = self.all_images or not rho * dmax < 0.9 * limit
         if not self.multi:
             rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
-            skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
-            skin = min(skin, limit - rho_list * dmax)
+            max_skin = limit - rho_list * dmax
         else:  # pairs may meet through several images (docs/algorithms.md, "Any box, any size ratio")
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
-            skin = max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean)
-            skin = min(skin, MULTI_IMAGE_MAX_SKIN * box)  # images one box away suffice (ed.image_collision)
+            max_skin = MULTI_IMAGE_MAX_SKIN * box  # images one box away suffice (ed.image_collision)
+        skin = min(max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
         m = cells_per_side(box, rho_list * dmax + skin, 3, n)
         self._sort_by_cell(m)
         cap = 16 if self.refs is None else self.nbr.shape[1]

@@ -31,6 +31,8 @@ from ..core.errors import InputError
 
 METHODS = ("minmax", "quantile")
 BAND_DEFAULTS = {"method": "minmax", "alpha": 0.95, "confidence": 0.95, "min_packings": 5}
+#: The ``fast`` config section's defaults: a compression is fast below these 1/gamma (the paper's Fig. 2b, 2d).
+FAST_DEFAULTS = {"ls_max_inverse_rate": 5.0, "fb_max_inverse_rate": 1000.0}
 
 
 def _sorted_finite(values) -> np.ndarray:
@@ -127,5 +129,5 @@ def band_edges(values, alpha: float = 0.95, confidence: float = 0.95) -> BandEdg
     )
 
 
-__all__ = ["METHODS", "BAND_DEFAULTS", "BandEdges", "band_edges", "lower_quantile", "upper_quantile",
+__all__ = ["METHODS", "BAND_DEFAULTS", "FAST_DEFAULTS", "BandEdges", "band_edges", "lower_quantile", "upper_quantile",
            "quantile_interval"]

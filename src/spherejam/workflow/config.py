@@ -14,7 +14,9 @@ from typing import Any
 
 from ..core.errors import InputError
 from ..core.validation import FB_RATE, FIELDS, LS_RATE, MAX_RUNS, SIGMA, check_mls
+from .bands import BAND_DEFAULTS, FAST_DEFAULTS
 from .experiment import PROTOCOLS, distributions_of, rate_grid
+from .fits import FIT_DEFAULTS, GCP_MONODISPERSE
 
 
 def check_config(config: Any) -> dict:
@@ -186,11 +188,8 @@ def validate_config(config: dict, schema_path: str | os.PathLike) -> dict:
 
 def fill_table_defaults(config: dict) -> dict:
     """Write the defaults of the table sections (``fits``, ``bands``, ``fast``, ``gcp_monodisperse``) into a
-    config. Their one source is the code that uses them (:mod:`spherejam.workflow.tables`, :mod:`.bands`); the
-    schema states only their limits."""
-    from .bands import BAND_DEFAULTS
-    from .tables import FAST_DEFAULTS, FIT_DEFAULTS, GCP_MONODISPERSE
-
+    config. Their one source is the code that uses them (:mod:`.fits`, :mod:`.bands`); the schema states only
+    their limits."""
     for section, defaults in (("fits", FIT_DEFAULTS), ("bands", BAND_DEFAULTS), ("fast", FAST_DEFAULTS)):
         node = config.setdefault(section, {})
         if isinstance(node, dict):

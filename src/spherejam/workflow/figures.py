@@ -16,8 +16,9 @@ import numpy as np
 
 from ..core.atomic import atomic_output
 from ..core.errors import InputError
+from .bands import FAST_DEFAULTS
 from .dataset import dataset_config
-from .tables import FAST_DEFAULTS, TABLE2_ROWS, completed_phi_J, compute_tables
+from .tables import TABLE2_ROWS, completed_phi_J, compute_tables
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
 SIGMA_MARKERS = "osD^v<>ph*"

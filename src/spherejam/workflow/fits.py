@@ -15,6 +15,12 @@ import numpy as np
 from ..core.errors import InputError
 
 N_COEFFICIENTS = 4
+#: The ``fits`` config section's defaults: how many of the slowest packings each Table 2 curve fits, the confidence,
+#: and when a cell is "not estimable" (docs/statistics.md).
+FIT_DEFAULTS = {"ls_initial": 125, "ls_densified": 80, "fb_initial": 300, "fb_densified": 300, "confidence": 0.95,
+                "min_points": 8, "max_half_width": 0.005}
+#: The paper's monodisperse phi_GCP (taken, not fitted).
+GCP_MONODISPERSE = 0.65
 
 
 @dataclass(frozen=True)

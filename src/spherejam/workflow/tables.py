@@ -36,9 +36,9 @@ import pandas as pd
 from ..core.atomic import atomic_folder
 from ..core.errors import InputError
 from . import paper_reference
-from .bands import BAND_DEFAULTS, band_edges
+from .bands import BAND_DEFAULTS, FAST_DEFAULTS, band_edges
 from .dataset import dataset_config, with_distributions
-from .fits import N_COEFFICIENTS, fit_gcp
+from .fits import FIT_DEFAULTS, GCP_MONODISPERSE, N_COEFFICIENTS, fit_gcp
 
 #: Table 2 rows: (label, protocol, variable, config key of the number of slowest points).
 TABLE2_ROWS = (
@@ -47,14 +47,9 @@ TABLE2_ROWS = (
     ("LS, densified", "ls", "phi_J", "ls_densified"),
     ("FB, densified", "fb", "phi_J", "fb_densified"),
 )
-FIT_DEFAULTS = {"ls_initial": 125, "ls_densified": 80, "fb_initial": 300, "fb_densified": 300, "confidence": 0.95,
-                "min_points": 8, "max_half_width": 0.005}
 #: Columns of an empty Table 2 (an experiment with sigma = 0 only).
 TABLE2_COLUMNS = ["curve", "protocol", "variable", "sigma", "phi_gcp", "half_width", "status", "n_points",
                   "paper_phi_gcp", "paper_half_width", "minus_paper", "minus_paper_in_half_widths"]
-FAST_DEFAULTS = {"ls_max_inverse_rate": 5.0, "fb_max_inverse_rate": 1000.0}
-#: The paper's monodisperse phi_GCP (taken, not fitted).
-GCP_MONODISPERSE = 0.65
 
 
 def _frame(ds) -> pd.DataFrame:
