@@ -161,9 +161,9 @@ def _warn_box(exp) -> None:
         model = d.model()
         samples = [model.draw(exp.n, rng_for(seed)) for seed in range(20)]
         # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
-        _, d_max = model.support()[0].min(), model.support()[0].max()
         bounded = math.isfinite(model.descriptors().size_ratio)
-        ratio = min(box_side(x) / (d_max if bounded else float(x.max())) for x in samples)
+        d_max = float(model.support()[0].max()) if bounded else None
+        ratio = min(box_side(x) / (d_max or float(x.max())) for x in samples)
         if ratio <= BOX_LIMIT:
             print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; CALiPPSO "
                   f"needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise --n)", flush=True)
