@@ -11,16 +11,17 @@ import time
 import numpy as np
 
 from ..core.rattlers import rattler_mask
-from .constraints import constraint_rows
+from .constraints import constraint_rows, pair_keys
 from .highs import highs_model
 from .solution import LPSolution
 
 
 def network_prediction(contact, rattler, pi, pj, n):
-    """The next LP's predicted active set from this LP's isostatic contact network: ``(contact keys i*N + j of the
-    contacts among non-rattlers, sorted; rattler mask)``, the arguments :func:`solve_active_set` takes."""
+    """The next LP's predicted active set from this LP's isostatic contact network: ``(contact keys
+    (:func:`~.constraints.pair_keys`) of the contacts among non-rattlers, sorted; rattler mask)``, the arguments
+    :func:`solve_active_set` takes."""
     stable = contact & ~rattler[pi] & ~rattler[pj]
-    return np.sort(pi[stable] * n + pj[stable]), rattler.copy()
+    return np.sort(pair_keys(pi, pj, n)[stable]), rattler.copy()
 
 
 def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
@@ -56,7 +57,7 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     if n_stable < dim + 2 or nu < 1 or stable.size < nu:
         return None
     top = stable[np.argsort(-score[stable], kind="stable")[:nu]]
-    return np.sort(pi[top] * n + pj[top]), rattler, fixed
+    return np.sort(pair_keys(pi, pj, n)[top]), rattler, fixed
 
 
 #: Pivots an active-set solve may take where HiGHS has no warm start to offer (an interior point's vertex; every LP
@@ -203,8 +204,8 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
                      why: list[str] | None = None) -> LPSolution | None:
     """Solve the LP from a predicted active set by simplex pivots; None if that does not work out.
 
-    The prediction is the isostatic contact network of the previous LP (``contact_keys`` = i*N + j of its contacts,
-    ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
+    The prediction is the isostatic contact network of the previous LP (``contact_keys``: the pair keys of its
+    contacts, ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
     non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
     transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
     below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
@@ -255,6 +256,7 @@ def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
     rattler[movers] = False
     slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
     keys = []
+    all_keys = pair_keys(pi, pj, n)
     taken = np.zeros(len(pi), dtype=bool)
     for q in movers:
         rows = np.flatnonzero(((pi == q) | (pj == q)) & ~rattler[pi] & ~rattler[pj] & ~taken)
@@ -262,7 +264,7 @@ def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
             return None
         best = rows[np.argsort(slack[rows], kind="stable")[:dim]]
         taken[best] = True
-        keys.append(pi[best].astype(np.int64) * n + pj[best])
+        keys.append(all_keys[best])
     return np.concatenate(keys), rattler
 
 
@@ -302,7 +304,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
     # pair rows), so that a bound a pivot runs into enters the basis like a contact (docs §5.4)
     m_pair = stable_rows.size
     a_all, rhs = _with_bound_rows(a_all, rhs, nu, s_bound, inflation_bounds)
-    key = pi[stable_rows] * n + pj[stable_rows]
+    key = pair_keys(pi, pj, n)[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
     if basis.size != nu:  # a predicted contact left the cutoff or involves a particle that is now a rattler
         return _fail(why, f"{nu - basis.size} predicted contacts are not rows among stable particles")

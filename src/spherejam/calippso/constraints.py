@@ -1,6 +1,6 @@
 """Sparse rows of the CALiPPSO linear program: linearised non-overlap constraints, built by numba kernels.
 
-For a pair i < j with minimum-image vector r_ij = r_i - r_j and contact distance sigma_ij = (D_i + D_j)/2, the exact
+For a pair i < j with vector r_ij = r_i - r_j (one row per periodic image within the cutoff) and contact distance sigma_ij = (D_i + D_j)/2, the exact
 non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sigma_ij^2 (Gamma: the inflation factor,
 ``inflation`` in the code, docs/calippso.md §1.1). Dropping the |s_i - s_j|^2 >= 0 term gives the linear row
 
@@ -9,6 +9,9 @@ non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sig
 whose feasible set lies inside the exact one, so every LP-feasible step is overlap-free for the constrained pairs.
 Columns are ordered s_{0,0..d-1}, s_{1,0..d-1}, ..., s_{N-1,d-1}, Gamma (d N + 1 columns); each row has 2d + 1
 nonzeros in increasing column order (CSR).
+
+In a box smaller than two cutoffs a pair may meet through several images, and then has one row per image
+(:func:`cutoff_rows`, docs/calippso.md §1.2); :func:`pair_keys` tells the rows of one pair apart.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..core.neighbours import minimum_image, pairs_within
+from ..core.neighbours import minimum_image, pair_images, pairs_within
 
 
 @njit(cache=True)
@@ -106,3 +109,40 @@ def pairs_in_cutoff(positions: np.ndarray, box: float, cutoff: float):
     """Pairs i < j with centre distance r_ij < ``cutoff`` (an absolute length), via the shared cell list."""
     n = positions.shape[0]
     return pairs_within(positions, np.full(n, float(cutoff)), box, 1.0)
+
+
+def cutoff_rows(positions: np.ndarray, box: float, cutoff: float):
+    """The LP's rows: every periodic image of every pair i < j closer than ``cutoff`` (an absolute length), as
+    ``(pi, pj, rij)`` with rij = r_i - r_j - n L of that image, sorted by (i, j, |rij|) (docs/calippso.md §1.2).
+
+    While the cutoff is below L/2 these are the pairs of :func:`pairs_in_cutoff` with their minimum-image vectors
+    (:func:`pair_vectors`), bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
+    """
+    n = positions.shape[0]
+    pi, pj, d = pair_images(positions, np.full(n, float(cutoff)), box, 1.0)
+    rij = pair_vectors(positions, box, pi, pj)
+    if np.any((pi[1:] == pi[:-1]) & (pj[1:] == pj[:-1])):
+        # a pair listed more than once: shift each row from the minimum image to its own image by whole boxes
+        shift = np.rint((-d - rij) / box)
+        rij = rij - shift * box
+    return pi, pj, rij
+
+
+def pair_keys(pi: np.ndarray, pj: np.ndarray, n: int) -> np.ndarray:
+    """One int64 key per row, unique within an LP and stable from one LP to the next: i N + j for the first row of
+    a pair, plus k N^2 for its k-th further row (k counted in row order, i.e. by distance for :func:`cutoff_rows`).
+
+    Where every pair has one row (a box larger than two cutoffs) the keys are i N + j. Rows of one pair change rank
+    only when two of its images are equally far, i.e. both in contact (docs/calippso.md §1.2). Keys of a subset of
+    rows are the subset of the full list's keys, not the keys of the subset.
+    """
+    key = pi.astype(np.int64) * n + pj
+    if key.size < 2 or np.all(key[1:] > key[:-1]):  # sorted and unique: one row per pair
+        return key
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    first = np.r_[True, k[1:] != k[:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(k.size), 0))
+    rank = np.empty(k.size, dtype=np.int64)
+    rank[order] = np.arange(k.size) - start
+    return key + rank * (np.int64(n) * n)

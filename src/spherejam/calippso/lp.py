@@ -16,7 +16,7 @@ import numpy as np
 from ..core.errors import InputError, SimulationError, require
 from ..core.validation import LP_SOLVERS
 from .active_set import MAX_PIVOTS, interior_point_prediction, solve_active_set
-from .constraints import constraint_rows, particle_force_sums, row_excess
+from .constraints import constraint_rows, pair_keys, particle_force_sums, row_excess
 from .highs import highs_model
 from .solution import LPBasis, LPSolution
 
@@ -233,7 +233,7 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     upper[pinned * dim:(pinned + 1) * dim] = 0.0
     lower[-1], upper[-1] = inflation_bounds
     lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
-    keys = pi.astype(np.int64) * n + pj
+    keys = pair_keys(pi, pj, n)
 
     opts = _highs_options(tolerance, options, solver, threads)
     _limit_blas_threads(threads)

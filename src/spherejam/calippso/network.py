@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from ..core.rattlers import rattler_mask
-from ..core.neighbours import pairs_within
-from .constraints import particle_force_sums
+from ..core.neighbours import pair_images
+from .constraints import pair_keys, particle_force_sums
 
 
 def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
@@ -42,8 +42,9 @@ def force_balance(rij, weight, pi, pj, n, rattler) -> float:
 
 
 def initial_pin(x, dia, box) -> int:
-    """The particle with the most neighbours within 1.05 sigma (likely part of the rigid network): pinned first."""
-    i, j, _ = pairs_within(x, dia, box, 1.05)
+    """The particle with the most neighbours within 1.05 sigma, images counted (likely part of the rigid network):
+    pinned first."""
+    i, j, _ = pair_images(x, dia, box, 1.05)
     if len(i) == 0:
         return len(x) - 1
     count = np.bincount(np.concatenate([i, j]), minlength=len(x))
@@ -57,13 +58,16 @@ def repin(contact, pi, pj, rattler, n) -> int:
     return int(np.argmax(count))
 
 
-def near_gaps(x, dia, box, gap_range, rattler, contact_pairs, n):
-    """Gaps h = r/sigma - 1 < ``gap_range`` of the non-contact pairs among non-rattlers, and those pairs."""
-    i, j, r = pairs_within(x, dia, box, 1.0 + gap_range)
-    keep = ~rattler[i] & ~rattler[j]
+def near_gaps(x, dia, box, gap_range, rattler, contact_keys, n):
+    """Gaps h = r/sigma - 1 < ``gap_range`` of the non-contact pair images among non-rattlers, and their pairs.
+
+    ``contact_keys`` are the contacts' :func:`~.constraints.pair_keys` in the LP's rows: a pair's images are ranked
+    by distance in both lists, so an image's key is the same in each (docs/calippso.md §1.2).
+    """
+    i, j, d = pair_images(x, dia, box, 1.0 + gap_range)
+    r = np.sqrt(sum(d[:, k] * d[:, k] for k in range(d.shape[1])))  # summed in pairs_within's order: same bits
+    is_contact = np.isin(pair_keys(i, j, n), contact_keys)
+    keep = ~rattler[i] & ~rattler[j] & ~is_contact
     i, j, r = i[keep], j[keep], r[keep]
-    key = i * n + j
-    is_contact = np.isin(key, contact_pairs[:, 0] * n + contact_pairs[:, 1])
-    i, j, r = i[~is_contact], j[~is_contact], r[~is_contact]
     h = r / (0.5 * (dia[i] + dia[j])) - 1.0
     return h, np.stack([i, j], axis=1)

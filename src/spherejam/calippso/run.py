@@ -32,7 +32,7 @@ from ..core.neighbours import pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set
-from .constraints import pair_vectors, pairs_in_cutoff
+from .constraints import cutoff_rows, pair_keys
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .network import contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
@@ -78,7 +78,8 @@ class CalippsoResult:
     forces : (K,) float array
         Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1).
     contact_vectors : (K, d) float array
-        Unit vectors (r_i - r_j)/|r_i - r_j| (minimum image): the force on i from j is ``forces * contact_vectors``.
+        Unit vectors (r_i - r_j)/|r_i - r_j| (of the contact's image: in a small box a pair may touch through
+        several images and is listed once per image): the force on i from j is ``forces * contact_vectors``.
     rattlers : (N,) bool array
         Particles outside the (d+1)-core of the contact graph.
     n_contacts : int
@@ -231,7 +232,8 @@ def run_calippso(
     ----------
     packing : Packing
         Overlap-free start (any d from 2 to 5, any polydispersity); overlaps beyond ``overlap_tolerance`` raise
-        :class:`OverlapError`. The box must exceed about 4 largest diameters (cutoff < L/2).
+        :class:`OverlapError`. Any box: a pair that meets through several periodic images has a row for
+        each (docs §1.2).
     max_iterations : int
         Iteration cap (1000). Not converged by then: ``stop_reason="max_iterations"`` (or an error if
         ``require_convergence``).
@@ -394,7 +396,7 @@ def run_calippso(
     forces = f / f.mean() if f.size else f
     pairs = np.stack([lp.pi[stable_pair], lp.pj[stable_pair]], axis=1)
     vectors = lp.rij[stable_pair] / r_norm[stable_pair, None]
-    gaps, gap_pairs = near_gaps(x, dia, box, gap_range, rattler, pairs, n)
+    gaps, gap_pairs = near_gaps(x, dia, box, gap_range, rattler, pair_keys(lp.pi, lp.pj, n)[stable_pair], n)
 
     out = Packing(
         x * unit, dia * unit, packing.box,
@@ -487,8 +489,7 @@ class _Tally:
 
 
 def _rows(x, dia, box, ell, s_bound=0.0, inflation_max=0.0, regime=0) -> _LP:
-    pi, pj, _ = pairs_in_cutoff(x, box, ell)
-    rij = pair_vectors(x, box, pi, pj)
+    pi, pj, rij = cutoff_rows(x, box, ell)
     sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
     return _LP(ell, s_bound, inflation_max, regime, pi, pj, rij, sigma2)
 

@@ -30,7 +30,8 @@ def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, 
 
     ``radius`` is the current largest radius R, ``cutoff0`` the user cutoff l0, ``s_bound`` an optional fixed
     bound overriding the regimes. Returns ``(l, s_bound, inflation_max, regime)`` (inflation_max: Gamma_max);
-    guarantees s_bound > 0, l <= box/2 and Gamma_max > 1 (docs/calippso.md §1.4), else raises :class:`InputError`.
+    guarantees s_bound > 0, l <= box and Gamma_max > 1 (docs/calippso.md §1.4); raises :class:`InputError` for a box
+    not wider than the largest sphere.
     """
     R = radius
     rd = math.sqrt(dim)
@@ -50,14 +51,14 @@ def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, 
     if s_bound is not None:
         sb = s_bound
         ell = max(ell, 2.2 * R + 2.0 * rd * sb)
-    if ell > box / 2.0:
-        ell = box / 2.0
-        sb = min(sb, (ell - 2.0 * R * (1.0 + 1e-3)) / (2.0 * rd))
-        if sb <= 1e-6 * R:
-            raise InputError(
-                f"box={box!r}: too small for CALiPPSO (cutoff must stay below L/2 = {box / 2:.6g} while exceeding "
-                f"the contact distance {2 * R:.6g}); use more particles"
-            )
+    if ell > box:
+        # beyond L a sphere's own images would come within reach; up to L every pair image in reach is a row
+        # (docs/calippso.md §1.4). Half the room left between D_max and L keeps sqrt(Gamma_max) D_max < L.
+        if 2.0 * R >= box:
+            raise InputError(f"box={box!r}: not wider than the largest sphere (diameter {2 * R:.6g}), which "
+                             "overlaps its own image")
+        ell = box
+        sb = min(sb, (box - 2.0 * R) / (4.0 * rd))
     inflation_max = ((ell - 2.0 * rd * sb) / (2.0 * R)) ** 2
     return ell, sb, inflation_max, regime
 

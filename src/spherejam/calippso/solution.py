@@ -21,8 +21,8 @@ SOLVER_CODES = {"none": 0, "hipo": 1, "ipx": 2, "simplex": 3}
 class LPBasis:
     """A HiGHS basis keyed by pair, so that the next LP (slightly different rows) can start from it.
 
-    ``keys`` are the sorted i*N + j of the rows, ``rows`` their HiGHS basis status codes in that order, ``cols``
-    the status codes of the d N + 1 columns.
+    ``keys`` are the sorted keys of the rows (:func:`~.constraints.pair_keys`), ``rows`` their HiGHS basis status
+    codes in that order, ``cols`` the status codes of the d N + 1 columns.
     """
 
     keys: np.ndarray
