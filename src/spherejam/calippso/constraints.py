@@ -124,7 +124,7 @@ def cutoff_rows(positions: np.ndarray, box: float, cutoff: float):
     if np.any((pi[1:] == pi[:-1]) & (pj[1:] == pj[:-1])):
         # a pair listed more than once: shift each row from the minimum image to its own image by whole boxes
         shift = np.rint((-d - rij) / box)
-        rij = rij - shift * box
+        rij = rij + shift * box
     return pi, pj, rij
 
 
