@@ -76,6 +76,9 @@ def test_psd_command_json(capsys):
     assert set(models) == {"farr_groot", "desmond_weeks", "santos"}
 
 
-def test_psd_command_warns_about_box(capsys):
+def test_psd_command_reports_the_box_and_no_calippso_limit(capsys):
+    """A box under two largest diameters is no longer a limit: CALiPPSO has a row per periodic image (issue 35)."""
     assert main(["psd", "bidisperse:ratio=4,small=0.3,by=volume", "--n", "40"]) == 0
-    assert "below CALiPPSO's limit L > 2 d_max" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    box = float(out.split("mean diameters = ")[1].split(" d_max")[0])
+    assert box < 2.0 and "CALiPPSO" not in out

@@ -205,8 +205,8 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     """Solve the LP from a predicted active set by simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys``: the pair keys of its
-    contacts, ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the stable,
-    non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
+    contacts, ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the
+    stable, non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
     transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
     below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
     others tight and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows

@@ -1,6 +1,6 @@
 """Sparse rows of the CALiPPSO linear program: linearised non-overlap constraints, built by numba kernels.
 
-For a pair i < j with vector r_ij = r_i - r_j (one row per periodic image within the cutoff) and contact distance sigma_ij = (D_i + D_j)/2, the exact
+For a pair i < j with the vector r_ij = r_i - r_j of one image and contact distance sigma_ij = (D_i + D_j)/2, the exact
 non-overlap condition after displacements s is |r_ij + s_i - s_j|^2 >= Gamma sigma_ij^2 (Gamma: the inflation factor,
 ``inflation`` in the code, docs/calippso.md §1.1). Dropping the |s_i - s_j|^2 >= 0 term gives the linear row
 

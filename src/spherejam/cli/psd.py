@@ -8,11 +8,8 @@ import math
 from ..core.validation import FIELDS, UNIT_OPEN
 from . import seed_int
 
-#: Jamming density at which the box side is estimated for CALiPPSO's box limit (a typical phi_J).
+#: Jamming density at which the box side of a sample is estimated (a typical phi_J).
 PHI_BOX = 0.64
-#: CALiPPSO's limit, L > ~2 d_max: its LP cutoff must stay below L/2 while exceeding the largest contact distance
-#: (calippso/schedule.py). LS, MLS and FB run in any box (docs/algorithms.md, "Any box, any size ratio").
-BOX_LIMIT = 2.0
 
 
 def register(sub) -> None:
@@ -79,10 +76,7 @@ def _psd(args) -> int:
     if "sample" in info:
         s = info["sample"]
         print(f"  sample (N = {s['n']}, seed {s['seed']}): {_line(s)}")
-        note = "" if s["box_over_dmax"] > BOX_LIMIT else \
-            f"  -- below CALiPPSO's limit L > {BOX_LIMIT:g} d_max: certification needs more spheres"
-        print(f"  box at φ = {s['box_at_phi']:g}: L = {s['box']:.3g} mean diameters = {s['box_over_dmax']:.3g} d_max"
-              + note)
+        print(f"  box at φ = {s['box_at_phi']:g}: L = {s['box']:.3g} mean diameters = {s['box_over_dmax']:.3g} d_max")
     print("  φ_RCP models:")
     for m in info["models"]:
         flag = "" if m["in_range"] else "  [outside the stated range]"

@@ -102,7 +102,6 @@ def _rcp(args) -> int:
     print(f"spherejam rcp: N = {exp.n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
           f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
           f"CALiPPSO), results in {exp.results}")
-    _warn_box(exp)
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
     cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
@@ -150,23 +149,6 @@ def failed_jobs(log: Path) -> list[str]:
             lines = [x for x in Path(m.group(1)).read_text(errors="replace").splitlines() if x.strip()]
             out.append(f"{m.group(1)}: {lines[-1] if lines else '(empty log)'}")
     return out
-
-
-def _warn_box(exp) -> None:
-    """Warn about distributions whose largest sphere (in a sample of N) leaves the box below CALiPPSO's limit."""
-    from ..core.seeding import rng_for
-    from .psd import BOX_LIMIT, box_side
-
-    for d in exp.distributions:
-        model = d.model()
-        samples = [model.draw(exp.n, rng_for(seed)) for seed in range(20)]
-        # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
-        bounded = math.isfinite(model.descriptors().size_ratio)
-        d_max = float(model.support()[0].max()) if bounded else None
-        ratio = min(box_side(x) / (d_max or float(x.max())) for x in samples)
-        if ratio <= BOX_LIMIT:
-            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; CALiPPSO "
-                  f"needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise --n)", flush=True)
 
 
 def _interval(value: float, half: float, n: str) -> str:
