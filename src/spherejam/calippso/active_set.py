@@ -426,8 +426,9 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         if not _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, 2.0 * feasibility):
             slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
             bad = (slack < feasibility) & ~active
-            stuck.update(s=s, inflation=inflation,
-                         rattlers=np.unique(np.concatenate([pi[bad & rattler[pi]], pj[bad & rattler[pj]]])))
+            movers = np.unique(np.concatenate([pi[bad & rattler[pi]], pj[bad & rattler[pj]]]))
+            if movers.size:  # else the tight rows are among stable particles (a degenerate vertex): no promotion
+                stuck.update(s=s, inflation=inflation, rattlers=movers)
             return _fail(why, "no feasible place for the rattlers at the vertex")
         slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
     if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails

@@ -55,8 +55,8 @@ def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, 
         # beyond L a sphere's own images would come within reach; up to L every pair image in reach is a row
         # (docs/calippso.md §1.4). Half the room left between D_max and L keeps sqrt(Gamma_max) D_max < L.
         if 2.0 * R >= box:
-            raise InputError(f"box={box!r}: not wider than the largest sphere (diameter {2 * R:.6g}), which "
-                             "overlaps its own image")
+            raise InputError(f"box={box!r}: not wider than the largest sphere (diameter {2 * R:.6g}, same units), "
+                             "which touches its own image; CALiPPSO needs L > D_max")
         ell = box
         sb = min(sb, (box - 2.0 * R) / (4.0 * rd))
     inflation_max = ((ell - 2.0 * rd * sb) / (2.0 * R)) ** 2
