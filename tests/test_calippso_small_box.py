@@ -91,6 +91,7 @@ def _mls(n, sigma, seed):
 @pytest.mark.parametrize("make, largest_over_box", [
     (lambda: _ls(40, 0.3, 3, 1e4), 0.69),  # LS stopped at p = 1e4: a dozen LPs, warm starts and active sets
     (lambda: _mls(10, 0.5, 10), 0.67),  # MLS-jammed: one LP
+    (lambda: _mls(3, 0.5, 1), 0.79),  # a pair touching through three images; its force LP's active set once crashed
 ])
 def test_small_box_packing_is_certified(make, largest_over_box):
     """Largest sphere wider than L/2 (the old rule refused these: its cutoff must exceed D_max and stay below L/2).
