@@ -57,8 +57,8 @@ def test_reproduction_config_is_complete_and_within_its_budget():
     cfg = yaml.safe_load((ROOT / "config" / "reproduction.yaml").read_text())
     schema = yaml.safe_load((ROOT / "config" / "schema.yaml").read_text())
     assert set(cfg) == set(schema["properties"])
-    table = plan(cfg)
-    assert sum(row["cpu_hours"] for row in table.values()) <= 8.0
+    tables = plan(cfg)
+    assert sum(row["cpu_hours"] for table in tables.values() for row in table.values()) <= 8.0
     exp = Experiment(cfg)
     fast = [r for r in exp.runs() if r.protocol == "ls" and 1 / r.rate < 5]
     assert len(fast) == 2 * 16 and not exp.grid_runs()

@@ -99,13 +99,13 @@ def _rcp(args) -> int:
     config = build_config(args)
     validate_config(config, args.workflow / "config" / "schema.yaml")
     exp = Experiment(config)
-    print(f"spherejam rcp: N = {exp.n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
+    print(f"spherejam rcp: N = {exp.largest_n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
           f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
           f"CALiPPSO), results in {exp.results}")
     _warn_box(exp)
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
-    cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
+    cpu_h = sum(r["cpu_hours"] for table in plan(config).values() for r in table.values())
     print(f"about {cpu_h * 60:.2g} CPU-minutes, {cpu_h * 60 / args.cores:.2g} min on {args.cores} cores (an idle "
           "machine)")
     if args.dry_run:
@@ -159,13 +159,13 @@ def _warn_box(exp) -> None:
 
     for d in exp.distributions:
         model = d.model()
-        samples = [model.draw(exp.n, rng_for(seed)) for seed in range(20)]
+        samples = [model.draw(exp.largest_n, rng_for(seed)) for seed in range(20)]
         # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
         bounded = math.isfinite(model.descriptors().size_ratio)
         d_max = float(model.support()[0].max()) if bounded else None
         ratio = min(box_side(x) / (d_max or float(x.max())) for x in samples)
         if ratio <= BOX_LIMIT:
-            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; CALiPPSO "
+            print(f"warning: {d.key} ({d.spec}): at N = {exp.largest_n} the box is about {ratio:.2f} d_max; CALiPPSO "
                   f"needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise --n)", flush=True)
 
 
