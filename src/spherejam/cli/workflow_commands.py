@@ -35,6 +35,8 @@ def register(sub) -> None:
     p = sub.add_parser("browse", help="summarise, filter and export an archived results dataset")
     p.add_argument("dataset", type=Path)
     p.add_argument("--protocol", choices=("ls", "fb"), help="only this protocol")
+    p.add_argument("--n", type=int, action="append", metavar="N",
+                   help="only packings of N spheres (a ladder of N has several; repeatable)")
     p.add_argument("--sigma", type=finite_float, action="append", help="only this sigma (repeatable)")
     p.add_argument("--distribution", action="append", metavar="NAME",
                    help="only this size distribution, by key (sigma0.1 or its config name; repeatable)")
@@ -179,6 +181,14 @@ def _browse(args) -> int:
     sub = ds[[v for v in ds.data_vars if dim in ds[v].dims]]
     sig, rate = ("grid_sigma", "grid_rate") if args.grid else ("sigma", "rate")
     mask = np.ones(ds.sizes[dim], dtype=bool)
+    if args.n:
+        size = "grid_n" if args.grid else "n"
+        known = sorted({int(v) for v in ds[size].values}) if size in ds.variables else [int(ds.attrs["n"])]
+        unknown = [n for n in args.n if n not in known]
+        if unknown:
+            raise InputError(f"--n={unknown[0]}: not in this dataset (have N = {', '.join(map(str, known))})")
+        if size in ds.variables:
+            mask &= np.isin(ds[size].values, args.n)
     if args.protocol and not args.grid:
         mask &= ds.protocol.values == args.protocol
     if args.sigma:

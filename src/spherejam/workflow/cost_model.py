@@ -251,7 +251,13 @@ def job_resources(stage: str, n, ladder=None, threads: int = 1) -> dict:
     ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard; ``threads`` are a
     ``calippso`` job's cores (:func:`cpus_per_task`)."""
     _check_stage(stage)
-    size = n if callable(n) else (lambda wildcards, n=_check_n(n): n)
+    if callable(n):
+        size = n
+    else:
+        fixed = _check_n(n)
+
+        def size(wildcards):
+            return fixed
 
     def runtime(wildcards, attempt):
         rate = float(wildcards.rate) if stage in ("ls", "fb") else None

@@ -2,8 +2,8 @@
 
 Two dimensions:
 
-* ``packing``: one entry per generated packing (N, protocol, distribution, gamma, replica), with its initial density phi,
-  closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
+* ``packing``: one entry per generated packing (N, protocol, distribution, gamma, replica), with its initial density
+  phi, closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
 * ``grid_run``: the parameter-validation grid (MLS with other parameter sets on selected LS packings).
 
 Each packing's size distribution is a set of coordinates: ``distribution`` (its key, ``sigma0.1`` or a config

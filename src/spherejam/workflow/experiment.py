@@ -77,7 +77,9 @@ JOB_FOLDERS = {"seed": ("seed", "run"), "ls": ("", "run"), "fb": ("", "run"), "m
 #: The paper's tables and the figures drawn from the dataset (Fig. 1, a rendered packing, is apart).
 TABLE_NAMES = ("table2", "table3", "table4")
 TABLE_FORMATS = ("csv", "md", "tex")
-FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces")
+FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling")
+#: Figures that need packings at several N (drawn for a ladder of N only).
+LADDER_FIGURES = ("scaling",)
 FIGURE_FORMATS = ("png", "pdf")
 
 
@@ -468,6 +470,11 @@ class Experiment:
             for r in self.rates_for(p, d.key, size)
             for k in range(self.replicas)
         ]
+
+    @property
+    def figure_names(self) -> tuple[str, ...]:
+        """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of a ladder of N only with one."""
+        return tuple(f for f in FIGURE_NAMES if self.ladder or f not in LADDER_FIGURES)
 
     def largest_runs(self, protocol: str | None = None) -> list[Run]:
         """The packings at the largest N (all of them for a single N)."""

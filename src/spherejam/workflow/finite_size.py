@@ -337,5 +337,6 @@ def extrapolate(n_particles, values, half_widths, targets, exponent: float = DEF
     return out
 
 
-__all__ = ["DEFAULT_EXPONENT", "EdgePrediction", "ScalingFit", "Validation", "bootstrap_fits", "expected_extreme",
-           "Extrapolation", "extrapolate", "fit_scaling", "leave_largest_out", "parameter_intervals", "predict_edges", "sample_edge", "standard_edge"]
+__all__ = ["DEFAULT_EXPONENT", "EdgePrediction", "Extrapolation", "ScalingFit", "Validation", "bootstrap_fits",
+           "expected_extreme", "extrapolate", "fit_scaling", "leave_largest_out", "parameter_intervals",
+           "predict_edges", "sample_edge", "standard_edge"]

@@ -574,6 +574,16 @@ def _fast_samples(df: pd.DataFrame, group: dict, protocol: str, limit: float) ->
     return {int(n): sub.phi_J.dropna().values for n, sub in fast.groupby("n")}
 
 
+def fast_bands(ds) -> list[tuple[dict, dict[str, dict[int, np.ndarray]]]]:
+    """Per distribution (the tables' rows, in order): its group and, per protocol, N -> the fast phi_J at that N
+    (the Table 3 band at each N)."""
+    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    df = _frame(ds)
+    df["n"] = ds["n"].values
+    return [(g, {p: _fast_samples(df, g, p, cfg[f"{p}_max_inverse_rate"]) for p in ("ls", "fb")})
+            for g in _groups(df)]
+
+
 def table3_extrapolated(ds) -> pd.DataFrame:
     """Table 3's columns at N = 10^4 and N -> infinity, from the finite-size scaling of each band: the sample
     min/max expected for the paper's sample sizes (85 LS, 165 FB packings) and the alpha-quantiles, each with its
