@@ -25,7 +25,7 @@ rule tables:
                 ),
                 PATHS.table("finite_size", "md"),
             ]
-            if EXP.ladder
+            if EXP.n_ladder
             else []
         ),
     params:

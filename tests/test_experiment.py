@@ -62,7 +62,7 @@ def test_reproduction_config_is_complete_and_within_its_budget():
     # against 3.7 measured, docs/reproduction.md), so its ladder of 11.9 modelled CPU-hours is ~7.5 measured
     assert sum(row["cpu_hours"] for table in tables.values() for row in table.values()) <= 12.0
     exp = Experiment(cfg)
-    assert exp.sizes == [250, 500, 1000] and exp.ladder and not exp.grid_runs()
+    assert exp.sizes == [250, 500, 1000] and exp.n_ladder and not exp.grid_runs()
     for n in exp.sizes:  # 16 fast LS compressions per band at every N; the slow series at the ends of the ladder
         fast = [r for r in exp.runs("ls", n) if 1 / r.rate < 5]
         assert len(fast) == 2 * 16

@@ -44,7 +44,7 @@ def test_a_single_n_keeps_the_paths_and_seeds_of_before():
 
 def test_a_ladder_puts_each_n_in_paths_and_seeds():
     exp = Experiment(_tiny(n=[80, 40]))
-    assert exp.sizes == [40, 80] and exp.ladder and exp.largest_n == 80
+    assert exp.sizes == [40, 80] and exp.n_ladder and exp.largest_n == 80
     runs = exp.runs()
     assert len(runs) == 2 * len(Experiment(_tiny()).runs())
     keys = {r.key for r in runs}

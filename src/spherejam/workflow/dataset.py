@@ -369,7 +369,7 @@ def build_dataset(manifest_path: str | os.PathLike):
         Conventions="CF-1.10",
         source=f"spherejam {prov['spherejam_version']}",
         references="V. Baranau and U. Tallarek, Soft Matter 10, 3826 (2014)",
-        n=np.array(exp.sizes, dtype=np.int64) if exp.ladder else int(exp.sizes[0]),
+        n=np.array(exp.sizes, dtype=np.int64) if exp.n_ladder else int(exp.sizes[0]),
         config=dumps(config),
         config_hash=manifest["config_hash"],
         git_commit=prov["git_commit"],

@@ -22,7 +22,7 @@ Files below the results folder ``<results>``:
 
 * ``packings/<run key>/{poisson,initial,jammed}.h5``, ``structure.json``, ``calippso.json``, ``calippso.h5``: one
   packing's stages (:data:`PACKING_FILES`), run key ``ls/sigma0.1/rate0.5/r0`` or ``fb/powder/rate0.01/r2``
-  (:data:`RUN_KEY`), with a ladder of N ``n1000/ls/sigma0.1/rate0.5/r0`` (:data:`LADDER_KEY`);
+  (:data:`RUN_KEY`), with a ladder of N ``n1000/ls/sigma0.1/rate0.5/r0`` (:data:`N_LADDER_KEY`);
 * ``validation/<grid key>.h5``: the MLS output of one validation-grid run (:data:`GRID_KEY`);
 * ``logs/``, ``benchmarks/``, ``checkpoints/``: per job, in the folder of its kind (:data:`JOB_FOLDERS`);
 * ``experiment.json``, ``dataset.nc``, ``tables/``, ``figures/``: the experiment as a whole.
@@ -48,7 +48,7 @@ PROTOCOLS = ("ls", "fb")
 #: ``dist`` is the distribution's key (``sigma0.1``, or a name of ``distributions``).
 RUN_KEY = "{protocol}/{dist}/rate{rate}/r{replica}"
 #: Run key of an experiment with a ladder of N (``n`` a list): N first, so each N's packings share one folder.
-LADDER_KEY = "n{n}/" + RUN_KEY
+N_LADDER_KEY = "n{n}/" + RUN_KEY
 #: The part of a validation-grid run's key after its packing's: its MLS ladder (decrease factor f, initial and final
 #: rate).
 GRID_SUFFIX = "/f{factor}_g{g0}_gf{gf}"
@@ -79,7 +79,7 @@ TABLE_NAMES = ("table2", "table3", "table4")
 TABLE_FORMATS = ("csv", "md", "tex")
 FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling")
 #: Figures that need packings at several N (drawn for a ladder of N only).
-LADDER_FIGURES = ("scaling",)
+N_LADDER_FIGURES = ("scaling",)
 FIGURE_FORMATS = ("png", "pdf")
 
 
@@ -229,7 +229,7 @@ class Run:
 
     @property
     def key(self) -> str:
-        key = RUN_KEY if self.n is None else LADDER_KEY
+        key = RUN_KEY if self.n is None else N_LADDER_KEY
         return key.format(n=self.n, protocol=self.protocol, dist=self.dist, rate=fmt(self.rate),
                           replica=self.replica)
 
@@ -277,11 +277,11 @@ class GridRun:
 class Paths:
     """Every file of the workflow below one results folder, as text (what Snakemake takes). A ``key`` is a
     :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use, with an ``{n}``
-    wildcard for a ladder of N (``ladder``)."""
+    wildcard for a ladder of N (``n_ladder``)."""
 
-    def __init__(self, results: Path, ladder: bool = False):
+    def __init__(self, results: Path, n_ladder: bool = False):
         self.results = results
-        self.run_pattern = LADDER_KEY if ladder else RUN_KEY
+        self.run_pattern = N_LADDER_KEY if n_ladder else RUN_KEY
         self.grid_pattern = self.run_pattern + GRID_SUFFIX
 
     def _file(self, *parts: str) -> str:
@@ -345,17 +345,17 @@ def sizes_of(config: dict[str, Any]) -> tuple[list[int], bool]:
     """The experiment's numbers of spheres N in ascending order, and whether they form a ladder (``n`` given as a
     list, even of one N: each N is then in the paths and seeds). Raises :class:`InputError` naming a bad value."""
     value = config["n"]
-    ladder = isinstance(value, (list, tuple))
-    values = list(value) if ladder else [value]
-    if ladder and not values:
+    n_ladder = isinstance(value, (list, tuple))
+    values = list(value) if n_ladder else [value]
+    if n_ladder and not values:
         raise InputError("n=[]: give at least one N")
     for i, v in enumerate(values):
         if isinstance(v, bool) or not isinstance(v, int) or v < 2:
-            where = f"n[{i}]" if ladder else "n"
+            where = f"n[{i}]" if n_ladder else "n"
             raise InputError(f"{where}={v!r}: must be an integer >= 2")
     if len(set(values)) != len(values):
         raise InputError(f"n={values!r}: an N appears twice")
-    return sorted(int(v) for v in values), ladder
+    return sorted(int(v) for v in values), n_ladder
 
 
 class Experiment:
@@ -370,7 +370,7 @@ class Experiment:
                 raise InputError(f"results={results!r}: must name the output folder (default 'results'); an empty "
                                  "path would write into the current folder")
             self.results = Path(results)
-            self.sizes, self.ladder = sizes_of(config)
+            self.sizes, self.n_ladder = sizes_of(config)
             self.master_seed = int(config["seed"])
             self.sigmas = [float(s) for s in config.get("sigmas") or []]
             self.distributions = distributions_of(config)
@@ -398,7 +398,7 @@ class Experiment:
                 if fixed is not None and self.sizes != [fixed]:
                     raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = "
                                      f"{config['n']}: set n to the list's length")
-        self.paths = Paths(self.results, self.ladder)
+        self.paths = Paths(self.results, self.n_ladder)
         for p in PROTOCOLS:
             check_distinct_paths(self.rates[p], f"{p}.rates")
             for k, (_, extra, sizes) in enumerate(self.extra_rates[p]):
@@ -461,7 +461,7 @@ class Experiment:
     def runs(self, protocol: str | None = None, n: int | None = None) -> list[Run]:
         """The packings of the experiment (of one protocol, and of one N of a ladder, if given), N outermost."""
         protocols = PROTOCOLS if protocol is None else (protocol,)
-        sizes = [None] if not self.ladder else self.sizes if n is None else [n]
+        sizes = [None] if not self.n_ladder else self.sizes if n is None else [n]
         return [
             Run(p, d.key, r, k, size)
             for size in sizes
@@ -474,11 +474,11 @@ class Experiment:
     @property
     def figure_names(self) -> tuple[str, ...]:
         """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of a ladder of N only with one."""
-        return tuple(f for f in FIGURE_NAMES if self.ladder or f not in LADDER_FIGURES)
+        return tuple(f for f in FIGURE_NAMES if self.n_ladder or f not in N_LADDER_FIGURES)
 
     def largest_runs(self, protocol: str | None = None) -> list[Run]:
         """The packings at the largest N (all of them for a single N)."""
-        return self.runs(protocol, self.largest_n if self.ladder else None)
+        return self.runs(protocol, self.largest_n if self.n_ladder else None)
 
     def figure1_run(self) -> Run:
         """The run whose closest jammed configuration Fig. 1 shows: at the largest N, the largest sigma (of the
@@ -515,7 +515,7 @@ class Experiment:
         g = self.grid
         # the experiment's own rate values (equal to the grid's under fmt), so grid runs match their packing exactly
         canonical = {float(s): {fmt(x): x for x in self.rates_for("ls", float(s))} for s in g["sigmas"]}
-        size = self.largest_n if self.ladder else None  # Fig. 3 at one N: the largest
+        size = self.largest_n if self.n_ladder else None  # Fig. 3 at one N: the largest
         sources = [
             Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k, size)
             for s in g["sigmas"]
