@@ -25,7 +25,7 @@ rule tables:
                 ),
                 PATHS.table("finite_size", "md"),
             ]
-            if EXP.n_ladder
+            if EXP.several_n
             else []
         ),
     params:

@@ -55,6 +55,9 @@ def test_a_ladder_puts_each_n_in_paths_and_seeds():
     # the validation grid re-jams packings at the largest N only; Fig. 1 shows one of them
     assert {g.source.n for g in exp.grid_runs()} == {80} and exp.figure1_run().n == 80
     assert "scaling" in exp.figure_names and "scaling" not in Experiment(_tiny()).figure_names
+    one = Experiment(_tiny(n=[80]))  # a ladder of one N: the ladder's paths and seeds, nothing to scale
+    assert one.n_ladder and not one.several_n and "scaling" not in one.figure_names
+    assert one.runs()[0].key.startswith("n80/")
 
 
 def test_extra_rates_can_be_limited_to_some_n():

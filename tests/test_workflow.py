@@ -266,7 +266,7 @@ def test_archive_of_a_run_is_browsable(tiny_run, tmp_path, capsys):
     assert not list((archive / "packings").rglob("poisson.h5"))
     capsys.readouterr()
     assert main(["browse", str(archive / "dataset.nc"), "--tables"]) == 0
-    assert "Table 4" in capsys.readouterr().out
+    assert "table4" in capsys.readouterr().out
     key = "ls/sigma0/rate0.5/r0"
     assert main(["browse", str(archive / "dataset.nc"), "--packing", key]) == 0
     out = capsys.readouterr().out

@@ -489,8 +489,9 @@ def open_dataset(path: str | os.PathLike):
     ds = ds.rename(renamed)
     for new in renamed.values():  # the old description is what made it look like a verdict
         ds[new].attrs["long_name"] = _structure_variables()[new][0]
-    if "n" not in ds.variables:  # written before N was an axis: one N, in the attributes
-        ds = ds.assign_coords(n=("packing", np.full(ds.sizes["packing"], int(ds.attrs["n"]), dtype=np.int64)))
+    single = ds.attrs.get("n", config.get("n"))
+    if "n" not in ds.variables and isinstance(single, (int, np.integer)):  # written before N was an axis: one N
+        ds = ds.assign_coords(n=("packing", np.full(ds.sizes["packing"], int(single), dtype=np.int64)))
         ds["n"].attrs.update(long_name=COORDS["n"][0], units=COORDS["n"][1])
     return with_distributions(ds)
 

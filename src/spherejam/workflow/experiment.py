@@ -78,7 +78,7 @@ JOB_FOLDERS = {"seed": ("seed", "run"), "ls": ("", "run"), "fb": ("", "run"), "m
 TABLE_NAMES = ("table2", "table3", "table4")
 TABLE_FORMATS = ("csv", "md", "tex")
 FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling")
-#: Figures that need packings at several N (drawn for a ladder of N only).
+#: Figures that need packings at several N.
 N_LADDER_FIGURES = ("scaling",)
 FIGURE_FORMATS = ("png", "pdf")
 
@@ -472,9 +472,16 @@ class Experiment:
         ]
 
     @property
+    def several_n(self) -> bool:
+        """Whether the experiment has packings at 2 or more N (what finite-size scaling needs; a ladder of one N has
+        the paths and seeds of a ladder, but nothing to scale)."""
+        return len(self.sizes) > 1
+
+    @property
     def figure_names(self) -> tuple[str, ...]:
-        """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of a ladder of N only with one."""
-        return tuple(f for f in FIGURE_NAMES if self.n_ladder or f not in N_LADDER_FIGURES)
+        """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of finite-size scaling only with
+        packings at several N."""
+        return tuple(f for f in FIGURE_NAMES if self.several_n or f not in N_LADDER_FIGURES)
 
     def largest_runs(self, protocol: str | None = None) -> list[Run]:
         """The packings at the largest N (all of them for a single N)."""
