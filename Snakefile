@@ -32,5 +32,5 @@ rule all:
     input:
         PATHS.dataset,
         PATHS.tables(),
-        PATHS.figures(),
+        PATHS.figures(EXP.figure_names),
         PATHS.figures(["fig1"]) if config["figures"]["render_fig1"] else [],

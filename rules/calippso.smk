@@ -18,7 +18,7 @@ rule calippso:
         PATHS.benchmark("calippso")
     threads: EXP.calippso_threads
     resources:
-        **job_resources("calippso", EXP.n, threads=EXP.calippso_threads),
+        **job_resources("calippso", EXP.size_of, threads=EXP.calippso_threads),
     group:
         "analysis"
     shell:

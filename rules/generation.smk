@@ -19,7 +19,7 @@ rule ls:
     benchmark:
         PATHS.benchmark("ls")
     resources:
-        **job_resources("ls", EXP.n),
+        **job_resources("ls", EXP.size_of),
     shell:
         "spherejam ls {input} --rate {wildcards.rate} --p-max {params.p_max} --seed {params.seed}"
         " --checkpoint {params.checkpoint} --discard-stale-checkpoint -o {output} > {log} 2>&1"
@@ -42,7 +42,7 @@ rule fb:
     benchmark:
         PATHS.benchmark("fb")
     resources:
-        **job_resources("fb", EXP.n),
+        **job_resources("fb", EXP.size_of),
     group:
         "generation"
     shell:

@@ -10,14 +10,14 @@ rule seed:
     output:
         PATHS.packing("poisson"),
     params:
-        n=EXP.n,
+        n=EXP.size_of,
         phi_nominal=config["phi_nominal"],
         seed=EXP.run_seed("poisson"),
         psd=EXP.psd,
     log:
         PATHS.log("seed"),
     resources:
-        **job_resources("seed", EXP.n),
+        **job_resources("seed", EXP.size_of),
     group:
         "generation"
     shell:

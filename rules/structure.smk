@@ -11,7 +11,7 @@ rule analyze:
     log:
         PATHS.log("analyze"),
     resources:
-        **job_resources("analyze", EXP.n),
+        **job_resources("analyze", EXP.size_of),
     group:
         "analysis"
     shell:

@@ -452,15 +452,15 @@ def test_threads_config_key_is_validated(bad):
     config["calippso"]["threads"] = 2
     exp = Experiment(validate_config(config, root / "config" / "schema.yaml"))
     assert exp.calippso_threads == 2
-    assert job_resources("calippso", exp.n, threads=exp.calippso_threads)["cpus_per_task"] == 2
-    assert cpus_per_task("mls", exp.n) == 1 and cpus_per_task("calippso", exp.n) == 1
+    assert job_resources("calippso", exp.largest_n, threads=exp.calippso_threads)["cpus_per_task"] == 2
+    assert cpus_per_task("mls") == 1 and cpus_per_task("calippso") == 1
     config["calippso"]["threads"] = bad
     for check in (lambda c: validate_config(c, root / "config" / "schema.yaml"), check_config):
         with pytest.raises(InputError, match=r"calippso\.threads=") as info:
             check(config)
         assert "\n" not in str(info.value)
     with pytest.raises(InputError, match=r"calippso\.threads="):
-        cpus_per_task("calippso", exp.n, bad)
+        cpus_per_task("calippso", bad)
 
 
 def test_row_check_is_relative_to_the_pairs_sigma2():

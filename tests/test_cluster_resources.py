@@ -182,7 +182,7 @@ def test_plan_counts_the_workflows_jobs():
 
     root = Path(__file__).resolve().parents[1]
     config = yaml.safe_load((root / "config" / "config.yaml").read_text())
-    table = cr.plan(config)
+    [table] = cr.plan(config).values()  # one N
     exp = Experiment(config)
     runs = exp.runs()
     assert table["seed"]["jobs"] == table["mls"]["jobs"] == len(runs)
@@ -208,14 +208,14 @@ def test_cost_command_prints_the_plan(tmp_path, capsys):
     configs = [str(root / "config.yaml"), str(root / "paper.yaml")]
     assert main(["cost", *configs]) == 0
     table = capsys.readouterr().out
-    plan = cr.plan(cr.load_configs(*configs))
-    rows = {line.split()[0]: line.split()[1:] for line in table.splitlines()[2:]}
+    [plan] = cr.plan(cr.load_configs(*configs)).values()  # one N
+    rows = {line.split()[0]: line.split()[1:] for line in table.splitlines()[3:]}
     assert set(rows) == set(plan) | {"total"}
     assert set(plan) == {"seed", "ls", "fb", "mls", "mls_grid", "analyze", "calippso"}
     for stage, row in plan.items():
         assert rows[stage] == [str(row["jobs"]), f"{row['cpu_hours']:.1f}", f"{row['requested_hours']:.1f}"]
     total_jobs = sum(row["jobs"] for row in plan.values())
-    assert table.startswith("N = 10000") and rows["total"][0] == str(total_jobs)
+    assert table.splitlines()[1] == "N = 10000" and rows["total"][0] == str(total_jobs)
     (tmp_path / "bad.yaml").write_text("n: [\n")
     (tmp_path / "list.yaml").write_text("- 1\n")
     for bad, needle in (("missing.yaml", "no such config file"), ("bad.yaml", "not valid YAML"),

@@ -54,6 +54,45 @@ def test_cost_sums_the_last_run_of_each_benchmark_file(tmp_path):
         folder.mkdir(parents=True, exist_ok=True)
         (folder / name).write_text("s\tcpu_time\n" + "".join(f"1\t{c}\n" for c in cpu))
     text = ra.cost_markdown(tmp_path)
-    assert "| mls | 2 | 0.11 | 200.0 | 200.0 | 300.0 |" in text
-    assert "| ls | 1 | 0.01 |" in text
-    assert "| total | | 0.12 |" in text
+    assert "| - | mls | 2 | 0.11 | 200.0 | 200.0 | 300.0 |" in text
+    assert "| - | ls | 1 | 0.01 |" in text
+    assert "| total | | | 0.12 |" in text
+
+
+def test_cost_of_a_ladder_is_per_n(tmp_path):
+    """A ladder files LS/FB jobs by run key (n250/ls/...) and the other stages below their folder (mls/n250/...)."""
+    for path, cpu in (("n250/ls/sigma0/rate1/r0.tsv", "36.0"), ("mls/n250/ls/sigma0/rate1/r0.tsv", "72.0"),
+                      ("mls/n1000/fb/sigma0/rate1/r0.tsv", "360.0")):
+        f = tmp_path / path
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text(f"s\tcpu_time\n1\t{cpu}\n")
+    text = ra.cost_markdown(tmp_path)
+    assert "| 250 | ls | 1 | 0.01 |" in text and "| 250 | mls | 1 | 0.02 |" in text
+    assert "| 1000 | mls | 1 | 0.10 |" in text and "| 250 | all | | 0.03 |" in text
+    assert "| total | | | 0.13 |" in text
+
+
+def test_a_ladder_is_judged_at_the_extrapolated_rows(tmp_path):
+    base = {"sigma": "0", "phi_RCP_paper": "0.6405", "phi_LT_paper": "0.6353", "phi_GCP": "0.65",
+            "phi_GCP_paper": "0.65"}
+    _write(tmp_path / "table4.csv", [
+        {"n": "1000.0", "extrapolated": "False", **base, "phi_LT": "0.6317", "phi_RCP": "0.6398"},
+        {"n": "10000.0", "extrapolated": "True", **base, "phi_LT": "0.6340", "phi_RCP": "0.6401"}])
+    t3 = {"sigma": "0"}
+    for p in ("ls", "fb"):
+        t3.update({f"{p}_n_fast": "16", f"{p}_phi_min_fast": "0.6308", f"{p}_phi_max_fast": "0.6393",
+                   f"{p}_phi_low_paper": "0.6356", f"{p}_phi_high_paper": "0.6406", f"{p}_phi_low_half_width": "",
+                   f"{p}_phi_high_half_width": ""})
+    _write(tmp_path / "table3.csv", [{"n": "1000.0", "extrapolated": "False", **t3},
+                                     {"n": "10000.0", "extrapolated": "True", **t3, "ls_phi_min_fast": "0.6350",
+                                      "ls_n_fast": "85", "ls_phi_low_half_width": "0.0012"}])
+    _write(tmp_path / "table2.csv", [{"n": "10000.0", "extrapolated": "True", "sigma": "0.3", "curve": "LS, initial",
+                                      "half_width": "0.0050", "n_points": "28", "status": "",
+                                      "paper_phi_gcp": "0.6777", "phi_gcp": "0.6780"}])
+    paper_n = {(r["criterion"], r["sigma"]): r for r in ra.acceptance(tmp_path)}
+    assert paper_n[("φ_LT ± 0.003 (Table 4)", 0.0)]["met"] == "yes"  # 0.6340 extrapolated, not 0.6317
+    ls_min = paper_n[("Table 3 LS φ_min^fast ± 0.004", 0.0)]
+    assert ls_min["met"] == "yes" and ls_min["detail"] == " (expected for 85; ± 0.0012)"
+    assert paper_n[("φ_GCP LS, initial ± 0.004, half-width < 0.004", 0.3)]["met"] == "**no**"  # half-width 0.005
+    measured = {(r["criterion"], r["sigma"]): r["met"] for r in ra.acceptance(tmp_path, 1000.0)}
+    assert measured[("φ_LT ± 0.003 (Table 4)", 0.0)] == "**no**"

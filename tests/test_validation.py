@@ -110,6 +110,8 @@ def _schema_node(schema, field):
             return [b["items"] for b in node["oneOf"] if b["type"] == "array"] + [
                 b["properties"][k] for b in node["oneOf"] if b["type"] == "object" for k in ("min", "max")]
         return [node["items"]]
+    if "oneOf" in node:  # a number or a list of them (n: one N or a ladder)
+        return [b["items"] if b["type"] == "array" else b for b in node["oneOf"]]
     return [node]
 
 

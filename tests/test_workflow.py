@@ -248,6 +248,39 @@ def test_browse_one_packing(tiny_run, tmp_path, capsys):
     assert "no such packing" in capsys.readouterr().err
 
 
+def test_archive_of_a_run_is_browsable(tiny_run, tmp_path, capsys):
+    """spherejam archive packs the dataset, tables, figures and chosen packings with a README; browse --tables,
+    --packing and --figure work on the archive as on the run; a too-large archive is refused before writing."""
+    from spherejam.cli import main
+    from spherejam.workflow.dataset import open_dataset
+
+    results, _ = tiny_run
+    archive = tmp_path / "archive"
+    assert main(["archive", str(results), "-o", str(archive), "--packings", "ls/sigma0/*"]) == 0
+    assert (archive / "tables" / "table4.md").is_file() and (archive / "figures" / "fig5.png").is_file()
+    readme = (archive / "README.md").read_text()
+    ds = open_dataset(archive / "dataset.nc")
+    assert ds.attrs["git_commit"] in readme and ds.attrs["config_hash"] in readme
+    assert "the files of 5 of them here" in readme
+    assert sorted(p.parent.name for p in (archive / "packings").rglob("jammed.h5"))[0] == "r0"
+    assert not list((archive / "packings").rglob("poisson.h5"))
+    capsys.readouterr()
+    assert main(["browse", str(archive / "dataset.nc"), "--tables"]) == 0
+    assert "table4" in capsys.readouterr().out
+    key = "ls/sigma0/rate0.5/r0"
+    assert main(["browse", str(archive / "dataset.nc"), "--packing", key]) == 0
+    out = capsys.readouterr().out
+    assert str(archive / "packings" / key / "jammed.h5") in out
+    assert main(["browse", str(archive / "dataset.nc"), "--figure", "fig4", "-o", str(tmp_path / "f4")]) == 0
+    assert (tmp_path / "f4.png").stat().st_size > 1000
+    # again, with fewer packings: the archive is replaced as a whole
+    assert main(["archive", str(results), "-o", str(archive)]) == 0
+    assert not (archive / "packings").exists()
+    assert main(["archive", str(results), "-o", str(archive), "--packings", "*", "--max-mb", "0.01"]) == 2
+    assert "--max-mb=0.01: the archive would hold" in capsys.readouterr().err
+    assert (archive / "dataset.nc").is_file()  # the refused archive left the old one as it was
+
+
 def test_killed_job_rerun_completes(tiny_run, tmp_path):
     """A workflow killed mid-job (SIGKILL, as on a node crash) leaves no partial output; the rerun completes."""
     import os

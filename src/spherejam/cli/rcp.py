@@ -99,12 +99,12 @@ def _rcp(args) -> int:
     config = build_config(args)
     validate_config(config, args.workflow / "config" / "schema.yaml")
     exp = Experiment(config)
-    print(f"spherejam rcp: N = {exp.n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
+    print(f"spherejam rcp: N = {exp.largest_n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
           f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
           f"CALiPPSO), results in {exp.results}")
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
-    cpu_h = sum(r["cpu_hours"] for r in plan(config).values())
+    cpu_h = sum(r["cpu_hours"] for table in plan(config).values() for r in table.values())
     print(f"about {cpu_h * 60:.2g} CPU-minutes, {cpu_h * 60 / args.cores:.2g} min on {args.cores} cores (an idle "
           "machine)")
     if args.dry_run:

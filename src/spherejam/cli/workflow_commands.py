@@ -26,15 +26,28 @@ def register(sub) -> None:
     p.set_defaults(func=_tables)
 
     p = sub.add_parser("figure", help="draw one figure (PNG and PDF) from a dataset")
-    p.add_argument("name", help="fig2, fig3, fig4, fig5, fig6, fig7, structure or forces")
+    p.add_argument("name", help="fig2, fig3, fig4, fig5, fig6, fig7, structure, forces or scaling")
     p.add_argument("dataset", type=Path)
     p.add_argument("-o", "--output", type=str, required=True,
                    help="output stem (writes STEM.png and STEM.pdf); a folder (DIR/) writes DIR/NAME.png and .pdf")
     p.set_defaults(func=_figure)
 
+    p = sub.add_parser("archive", help="pack a finished run (dataset, tables, figures, chosen packings) into a "
+                                       "folder with a README, to track or publish")
+    p.add_argument("results", type=Path, help="the run's results folder (holding dataset.nc)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="the archive folder (replaced as a whole)")
+    p.add_argument("--packings", action="append", default=[], metavar="PATTERN",
+                   help="also the files of the packings whose key matches this glob, e.g. 'n1000/*' (repeatable)")
+    p.add_argument("--stage", action="append", choices=("poisson", "initial", "jammed", "calippso_packing"),
+                   help="which file of each chosen packing (repeatable; default jammed)")
+    p.add_argument("--max-mb", type=finite_float, default=20.0, help="refuse a larger archive (default 20 MB)")
+    p.set_defaults(func=_archive)
+
     p = sub.add_parser("browse", help="summarise, filter and export an archived results dataset")
     p.add_argument("dataset", type=Path)
     p.add_argument("--protocol", choices=("ls", "fb"), help="only this protocol")
+    p.add_argument("--n", type=int, action="append", metavar="N",
+                   help="only packings of N spheres (a ladder of N has several; repeatable)")
     p.add_argument("--sigma", type=finite_float, action="append", help="only this sigma (repeatable)")
     p.add_argument("--distribution", action="append", metavar="NAME",
                    help="only this size distribution, by key (sigma0.1 or its config name; repeatable)")
@@ -81,6 +94,20 @@ def _dataset(args) -> int:
     write_dataset(ds, args.output)
     print(f"{args.output}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
           f"{len(ds.data_vars)} variables")
+    return 0
+
+
+def _archive(args) -> int:
+    import shlex
+    import sys
+
+    from ..workflow.archive import write_archive
+
+    command = "spherejam " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:2] == ["archive"] else (
+        "spherejam archive")
+    plan = write_archive(args.results, args.output, args.packings, tuple(args.stage or ("jammed",)), args.max_mb,
+                         command)
+    print(f"{args.output}: {len(plan.files) + 1} files, {plan.size / 1e6:.1f} MB")
     return 0
 
 
@@ -179,6 +206,14 @@ def _browse(args) -> int:
     sub = ds[[v for v in ds.data_vars if dim in ds[v].dims]]
     sig, rate = ("grid_sigma", "grid_rate") if args.grid else ("sigma", "rate")
     mask = np.ones(ds.sizes[dim], dtype=bool)
+    if args.n:
+        size = "grid_n" if args.grid else "n"
+        known = sorted({int(v) for v in ds[size].values}) if size in ds.variables else [int(ds.attrs["n"])]
+        unknown = [n for n in args.n if n not in known]
+        if unknown:
+            raise InputError(f"--n={unknown[0]}: not in this dataset (have N = {', '.join(map(str, known))})")
+        if size in ds.variables:
+            mask &= np.isin(ds[size].values, args.n)
     if args.protocol and not args.grid:
         mask &= ds.protocol.values == args.protocol
     if args.sigma:

@@ -15,7 +15,7 @@ from typing import Any
 from ..core.errors import InputError
 from ..core.validation import FB_RATE, FIELDS, LS_RATE, MAX_RUNS, SIGMA, check_mls
 from .bands import BAND_DEFAULTS, FAST_DEFAULTS
-from .experiment import PROTOCOLS, distributions_of, rate_grid
+from .experiment import PROTOCOLS, distributions_of, rate_grid, sizes_of
 from .fits import FIT_DEFAULTS, GCP_MONODISPERSE
 
 
@@ -34,6 +34,8 @@ def check_config(config: Any) -> dict:
         if not isinstance(config[section], dict) or "rates" not in config[section]:
             raise InputError(f"{section}.rates: required key missing")
     for field, bound in FIELDS.items():
+        if field == "n" and isinstance(config["n"], list):  # a ladder of N: each element is an N
+            field = "n[]"
         for path, value in _values(config, field):
             if value is None and field in _NULLABLE:
                 continue
@@ -56,7 +58,7 @@ def check_config(config: Any) -> dict:
     for d in distributions:
         if d.sigma is None:
             d.model()  # a named spec must parse (and its file read): one line naming distributions.<name>
-    n_dist = len(distributions)
+    n_dist = len(distributions) * len(sizes_of(config)[0])
     total = 0
     for protocol in PROTOCOLS:
         try:
@@ -75,9 +77,10 @@ def check_config(config: Any) -> dict:
                 raise InputError(f"{where}.{exc}") from None
             for i, r in enumerate(extra_rates):
                 bound.check(f"{where}.rates[{i}]", r)
-            total += len(extra_rates) * len(extra.get("sigmas", [])) * int(config.get("replicas", 1))
+            total += (len(extra_rates) * len(extra.get("sigmas", [])) * len(sizes_of(config)[0])
+                      * int(config.get("replicas", 1)))
     if total > MAX_RUNS:
-        raise InputError(f"distributions x rates x replicas = {total} runs: at most {MAX_RUNS}")
+        raise InputError(f"N x distributions x rates x replicas = {total} runs: at most {MAX_RUNS}")
     return config
 
 

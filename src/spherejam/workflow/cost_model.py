@@ -1,6 +1,6 @@
 """Cluster resources of one workflow job: SLURM time limit, memory and cores from the protocol, N and the rates.
 
-The workflow's rules take their ``resources:`` from :func:`job_resources` (``**job_resources("ls", EXP.n)``), so
+The workflow's rules take their ``resources:`` from :func:`job_resources` (``**job_resources("ls", EXP.size_of)``), so
 these functions must stay cheap and import nothing heavy (no numpy, no numba): Snakemake evaluates them for every
 job when it builds the DAG. The stages are the rules' names; ``spherejam cost CONFIG`` prints a whole config's
 jobs and hours per stage (:func:`plan`).
@@ -220,11 +220,10 @@ def mem_mb(stage: str, n: int, attempt: int = 1) -> int:
     return int(math.ceil(base / 100.0) * 100) * attempt
 
 
-def cpus_per_task(stage: str, n: int, threads: int = 1) -> int:
-    """Cores of one job: every engine is single-threaded (numba without parallel loops); a CALiPPSO job gets its
-    ``threads`` (config ``calippso.threads``, HiGHS and HiPO's BLAS), 1 by default."""
+def cpus_per_task(stage: str, threads: int = 1) -> int:
+    """Cores of one job, at any N: every engine is single-threaded (numba without parallel loops); a CALiPPSO job
+    gets its ``threads`` (config ``calippso.threads``, HiGHS and HiPO's BLAS), 1 by default."""
     _check_stage(stage)
-    _check_n(n)
     if stage != "calippso":
         return 1
     from ..core.validation import THREADS  # stdlib only, like this module
@@ -240,30 +239,38 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
     return JobEstimate(
         runtime=runtime_minutes(stage, n, rate, attempt, **kw),
         mem_mb=mem_mb(stage, n, attempt),
-        cpus_per_task=cpus_per_task(stage, n),
+        cpus_per_task=cpus_per_task(stage),
         cpu_seconds=cpu_seconds(stage, n, rate, **kw),
     )
 
 
-def job_resources(stage: str, n: int, ladder=None, threads: int = 1) -> dict:
+def job_resources(stage: str, n, ladder=None, threads: int = 1) -> dict:
     """The ``resources:`` of a workflow rule: time limit and memory as functions of a job's wildcards and attempt,
-    and its cores. ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
+    and its cores. ``n`` is the number of spheres N, or a function of the wildcards giving it (a ladder of N);
+    ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
     ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard; ``threads`` are a
     ``calippso`` job's cores (:func:`cpus_per_task`)."""
     _check_stage(stage)
+    if callable(n):
+        size = n
+    else:
+        fixed = _check_n(n)
+
+        def size(wildcards):
+            return fixed
 
     def runtime(wildcards, attempt):
         rate = float(wildcards.rate) if stage in ("ls", "fb") else None
-        return runtime_minutes(stage, n, rate, attempt, **(ladder(wildcards) if ladder else {}))
+        return runtime_minutes(stage, size(wildcards), rate, attempt, **(ladder(wildcards) if ladder else {}))
 
     def memory(wildcards, attempt):
-        return mem_mb(stage, n, attempt)
+        return mem_mb(stage, size(wildcards), attempt)
 
-    return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, n, threads)}
+    return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, threads)}
 
 
-def plan(config: dict) -> dict[str, dict[str, float]]:
-    """Jobs, expected CPU hours and requested (time-limit) hours per stage of a whole workflow config.
+def plan(config: dict) -> dict[int, dict[str, dict[str, float]]]:
+    """Per N of the experiment: jobs, expected CPU hours and requested (time-limit) hours per stage.
 
     Mirrors the workflow's jobs: per generated packing one seed, one generation (ls/fb), one MLS, and (when enabled)
     one analyze and one calippso job; plus one MLS job per validation-grid run. First attempts only.
@@ -275,35 +282,42 @@ def plan(config: dict) -> dict[str, dict[str, float]]:
     mls_kw = {"initial_rate": float(mls.get("initial_rate", 10.0)),
               "decrease_factor": float(mls.get("decrease_factor", 2.0)),
               "final_rate": float(mls.get("final_rate", 1e-4))}
-    jobs: list[tuple[str, float | None, dict]] = []
+    jobs: list[tuple[int, str, float | None, dict]] = []
     for run in exp.runs():
-        jobs += [("seed", None, {}), (run.protocol, run.rate, {}), ("mls", None, mls_kw)]
+        n = exp.size(run)
+        jobs += [(n, "seed", None, {}), (n, run.protocol, run.rate, {}), (n, "mls", None, mls_kw)]
         if config.get("analysis", {}).get("enabled", False):
-            jobs.append(("analyze", None, {}))
+            jobs.append((n, "analyze", None, {}))
         if config.get("calippso", {}).get("enabled", False):
-            jobs.append(("calippso", None, {}))
+            jobs.append((n, "calippso", None, {}))
     for g in exp.grid_runs():
-        jobs.append(("mls_grid", None, {"initial_rate": g.initial_rate, "decrease_factor": g.decrease_factor,
-                                        "final_rate": g.final_rate}))
-    table: dict[str, dict[str, float]] = {}
-    for label, rate, kw in jobs:
+        jobs.append((exp.size(g.source), "mls_grid", None, g.ladder))
+    tables: dict[int, dict[str, dict[str, float]]] = {n: {} for n in exp.sizes}
+    for n, label, rate, kw in jobs:
         stage = "mls" if label == "mls_grid" else label
-        row = table.setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
+        row = tables[n].setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
         row["jobs"] += 1
-        row["cpu_hours"] += cpu_seconds(stage, exp.n, rate, **kw) / 3600.0
-        row["requested_hours"] += runtime_minutes(stage, exp.n, rate, **kw) / 60.0
-    return table
+        row["cpu_hours"] += cpu_seconds(stage, n, rate, **kw) / 3600.0
+        row["requested_hours"] += runtime_minutes(stage, n, rate, **kw) / 60.0
+    return tables
 
 
 def print_plan(config: dict) -> None:
-    """Print :func:`plan` of ``config`` as a table (``spherejam cost``)."""
-    table = plan(config)
-    print(f"N = {config['n']}; first attempts; expected = model CPU time, requested = sum of SLURM time limits")
-    print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
-    for label, row in table.items():
-        print(f"{label:10s} {row['jobs']:7d} {row['cpu_hours']:15.1f} {row['requested_hours']:12.1f}")
-    total = {k: sum(r[k] for r in table.values()) for k in ("jobs", "cpu_hours", "requested_hours")}
-    print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
+    """Print :func:`plan` of ``config`` as a table per N, and the total of a ladder (``spherejam cost``)."""
+    tables = plan(config)
+    print("first attempts; expected = model CPU time, requested = sum of SLURM time limits")
+    totals = {k: 0.0 for k in ("jobs", "cpu_hours", "requested_hours")}
+    for n, table in tables.items():
+        print(f"N = {n}")
+        print(f"{'stage':10s} {'jobs':>7s} {'expected CPU h':>15s} {'requested h':>12s}")
+        for label, row in table.items():
+            print(f"{label:10s} {row['jobs']:7d} {row['cpu_hours']:15.1f} {row['requested_hours']:12.1f}")
+        total = {k: sum(r[k] for r in table.values()) for k in totals}
+        print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
+        totals = {k: totals[k] + total[k] for k in totals}
+    if len(tables) > 1:
+        print(f"{'all N':10s} {int(totals['jobs']):7d} {totals['cpu_hours']:15.1f} "
+              f"{totals['requested_hours']:12.1f}")
 
 
 def load_configs(*paths) -> dict:

@@ -2,15 +2,16 @@
 
 Two dimensions:
 
-* ``packing``: one entry per generated packing (protocol, distribution, gamma, replica), with its initial density phi,
-  closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
+* ``packing``: one entry per generated packing (N, protocol, distribution, gamma, replica), with its initial density
+  phi, closest jamming density phi_J (MLS), run counters, structure measures and CALiPPSO certification;
 * ``grid_run``: the parameter-validation grid (MLS with other parameter sets on selected LS packings).
 
 Each packing's size distribution is a set of coordinates: ``distribution`` (its key, ``sigma0.1`` or a config
 name), ``psd`` (the spec) and the population's descriptors ``psd_delta``, ``psd_skewness``, ``psd_size_ratio``,
 ``psd_z``; ``sigma`` is the log-normal sigma of a ``sigmas`` run (NaN for a named distribution). The drawn sample's
 own descriptors are variables (``sample_delta``, ...). Datasets written before distributions existed get these
-coordinates on reading (:func:`open_dataset`), from their sigma.
+coordinates on reading (:func:`open_dataset`), from their sigma. The coordinate ``n`` is each packing's number of
+spheres N (a ladder of N has several); a dataset written before it existed gets it from its ``n`` attribute.
 
 The config, its hash, package versions and git commit are stored as JSON-string attributes, so the file can be
 archived and browsed without the packing files (``spherejam browse``).
@@ -62,6 +63,7 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "sample_z": ("M2^2/(M1 M3) of the packing's drawn diameters", "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
+    "n": ("number of spheres N of the packing", "1"),
     "protocol": ("generation protocol: ls = Lubachevsky-Stillinger, fb = force-biased", ""),
     "sigma": ("relative standard deviation of the log-normal diameters (sigmas runs; NaN for a named distribution)",
               "1"),
@@ -79,6 +81,7 @@ COORDS: dict[str, tuple[str, str]] = {
     "replica": ("replica index", "1"),
     "seed": ("seed of the Poisson configuration", "1"),
     "key": ("path of the run below packings/", ""),
+    "grid_n": ("number of spheres N of the source LS packing", "1"),
     "grid_sigma": ("relative standard deviation of the source LS packing", "1"),
     "grid_rate": ("LS compression rate gamma of the source packing", "1"),
     "grid_inverse_rate": ("inverse LS compression rate 1/gamma of the source packing", "1"),
@@ -219,8 +222,8 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
     """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma of the ``sigmas``
-    runs (named distributions are not pooled), with the small-argument power-law exponents fitted on the pooled
-    samples."""
+    runs (named distributions are not pooled) at the largest N, with the small-argument power-law exponents fitted
+    on the pooled samples."""
     from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
@@ -229,7 +232,7 @@ def collect_distributions(exp: Experiment) -> dict[str, tuple]:
                             "n_forces", "n_gaps")}
     for sigma in sigmas:
         forces, extended, gaps = [], [], []
-        for run in exp.runs():
+        for run in exp.largest_runs():
             if run.sigma != sigma:
                 continue
             c = read_group(exp.path(run, "calippso_packing"), "contacts")
@@ -327,6 +330,7 @@ def build_dataset(manifest_path: str | os.PathLike):
     names = sorted({k for r in rows for k in r})
     data_vars = {name: ("packing", np.array([r.get(name, math.nan) for r in rows], dtype=float)) for name in names}
     coords = {
+        "n": ("packing", np.array([exp.size(r) for r in runs], dtype=np.int64)),
         "protocol": ("packing", np.array([r.protocol for r in runs], dtype=str)),
         "sigma": ("packing", np.array([r.sigma for r in runs])),
         **distribution_coords(exp, [r.dist for r in runs]),
@@ -343,6 +347,7 @@ def build_dataset(manifest_path: str | os.PathLike):
             {n: ("grid_run", np.array([r.get(n, math.nan) for r in grid_rows], dtype=float)) for n in gnames}
         )
         coords.update(
+            grid_n=("grid_run", np.array([exp.size(g.source) for g in grid_runs], dtype=np.int64)),
             grid_sigma=("grid_run", np.array([g.source.sigma for g in grid_runs])),
             grid_rate=("grid_run", np.array([g.source.rate for g in grid_runs])),
             grid_inverse_rate=("grid_run", 1.0 / np.array([g.source.rate for g in grid_runs])),
@@ -364,7 +369,7 @@ def build_dataset(manifest_path: str | os.PathLike):
         Conventions="CF-1.10",
         source=f"spherejam {prov['spherejam_version']}",
         references="V. Baranau and U. Tallarek, Soft Matter 10, 3826 (2014)",
-        n=int(exp.n),
+        n=np.array(exp.sizes, dtype=np.int64) if exp.n_ladder else int(exp.sizes[0]),
         config=dumps(config),
         config_hash=manifest["config_hash"],
         git_commit=prov["git_commit"],
@@ -407,6 +412,22 @@ def with_distributions(ds):
         psd_size_ratio=("packing", np.array([desc[s].size_ratio for s in sigmas])),
         psd_z=("packing", np.array([desc[s].z for s in sigmas])),
     )
+
+
+def sizes_in(ds) -> list[int]:
+    """The numbers of spheres N of a dataset's packings, ascending (one, or a ladder)."""
+    if "n" in ds.variables:
+        return sorted({int(n) for n in ds["n"].values})
+    n = ds.attrs.get("n", dataset_config(ds).get("n") if "config" in ds.attrs else None)
+    return [] if n is None else sorted(int(x) for x in np.atleast_1d(n))
+
+
+def at_n(ds, n: int):
+    """The part of a dataset at one N: its packings (and validation-grid runs) with N = ``n``."""
+    ds = ds.isel(packing=np.flatnonzero(ds["n"].values == n))
+    if "grid_n" in ds.variables:
+        ds = ds.isel(grid_run=np.flatnonzero(ds["grid_n"].values == n))
+    return ds
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:
@@ -468,6 +489,10 @@ def open_dataset(path: str | os.PathLike):
     ds = ds.rename(renamed)
     for new in renamed.values():  # the old description is what made it look like a verdict
         ds[new].attrs["long_name"] = _structure_variables()[new][0]
+    single = ds.attrs.get("n", config.get("n"))
+    if "n" not in ds.variables and isinstance(single, (int, np.integer)):  # written before N was an axis: one N
+        ds = ds.assign_coords(n=("packing", np.full(ds.sizes["packing"], int(single), dtype=np.int64)))
+        ds["n"].attrs.update(long_name=COORDS["n"][0], units=COORDS["n"][1])
     return with_distributions(ds)
 
 

@@ -9,15 +9,20 @@ A config (see ``config/schema.yaml``) names the spheres per packing, the size di
 paper's log-normals, and ``distributions``, any named spec of :mod:`spherejam.core.size_distribution`), the LS and FB
 compression-rate grids gamma, the number of replicas, the MLS parameters, and the parameter-validation grid.
 
-The experiment's axis is the **distribution** (:class:`Distribution`), keyed in paths, seeds and the dataset by its
-key: ``sigma0.1`` for an entry of ``sigmas`` (the paths and seeds of spherejam 0.1, unchanged) or the name given
-in ``distributions`` (``powder``).
+The experiment has two axes:
+
+* the **distribution** (:class:`Distribution`), keyed in paths, seeds and the dataset by its key: ``sigma0.1`` for
+  an entry of ``sigmas`` (the paths and seeds of spherejam 0.1, unchanged) or the name given in ``distributions``
+  (``powder``);
+* the **number of spheres N** (``n``). A single number keeps the paths and seeds of spherejam 0.1; a list (a
+  ladder of N, for finite-size scaling, docs/finite_size.md) puts each N first in the run key (``n1000/...``) and
+  in the seeds, so packings at different N are independent.
 
 Files below the results folder ``<results>``:
 
 * ``packings/<run key>/{poisson,initial,jammed}.h5``, ``structure.json``, ``calippso.json``, ``calippso.h5``: one
   packing's stages (:data:`PACKING_FILES`), run key ``ls/sigma0.1/rate0.5/r0`` or ``fb/powder/rate0.01/r2``
-  (:data:`RUN_KEY`);
+  (:data:`RUN_KEY`), with a ladder of N ``n1000/ls/sigma0.1/rate0.5/r0`` (:data:`N_LADDER_KEY`);
 * ``validation/<grid key>.h5``: the MLS output of one validation-grid run (:data:`GRID_KEY`);
 * ``logs/``, ``benchmarks/``, ``checkpoints/``: per job, in the folder of its kind (:data:`JOB_FOLDERS`);
 * ``experiment.json``, ``dataset.nc``, ``tables/``, ``figures/``: the experiment as a whole.
@@ -42,16 +47,20 @@ PROTOCOLS = ("ls", "fb")
 #: Key of one generated packing, the folder of its files below ``packings/``; braces are the wildcards of the rules.
 #: ``dist`` is the distribution's key (``sigma0.1``, or a name of ``distributions``).
 RUN_KEY = "{protocol}/{dist}/rate{rate}/r{replica}"
-#: Key of one validation-grid run: the LS packing it re-jams, then its MLS ladder (decrease factor f, initial and
-#: final rate).
-GRID_KEY = RUN_KEY + "/f{factor}_g{g0}_gf{gf}"
+#: Run key of an experiment with a ladder of N (``n`` a list): N first, so each N's packings share one folder.
+N_LADDER_KEY = "n{n}/" + RUN_KEY
+#: The part of a validation-grid run's key after its packing's: its MLS ladder (decrease factor f, initial and final
+#: rate).
+GRID_SUFFIX = "/f{factor}_g{g0}_gf{gf}"
+#: Key of one validation-grid run: the LS packing it re-jams, then its MLS ladder.
+GRID_KEY = RUN_KEY + GRID_SUFFIX
 _NUMBER = r"[0-9][0-9.e+-]*"
 #: A name in ``distributions``: a letter, then letters, digits, ``_`` or ``-`` (it is a folder name and a wildcard).
 NAME_PATTERN = r"[A-Za-z][A-Za-z0-9_-]*"
 _SHORTHAND = re.compile(r"sigma([0-9][0-9.e+-]*)")
 #: What each wildcard of the keys may match (the workflow's global ``wildcard_constraints``).
 #: ``dist`` is a name or ``sigma`` followed by a number (``sigma0.1``, ``sigma1e-05``).
-WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za-z0-9_.+-]*",
+WILDCARD_CONSTRAINTS = {"n": r"\d+", "protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za-z0-9_.+-]*",
                         "rate": _NUMBER, "replica": r"\d+", "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
 
 #: The files of one packing below ``packings/<run key>/``, by stage: the Poisson start, the LS or FB output, the MLS
@@ -59,17 +68,18 @@ WILDCARD_CONSTRAINTS = {"protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za
 PACKING_FILES = {"poisson": "poisson.h5", "initial": "initial.h5", "jammed": "jammed.h5",
                  "structure": "structure.json", "calippso": "calippso.json", "calippso_packing": "calippso.h5"}
 
-#: Folder and key of each per-packing job's log, benchmark and checkpoint below ``logs/``, ``benchmarks/`` and
-#: ``checkpoints/``. The job names are the rules' and the cost model's stages; LS and FB jobs are filed by protocol
-#: (``logs/ls/sigma0.1/rate0.5/r0.log``).
-JOB_FOLDERS = {"seed": ("seed", RUN_KEY), "ls": ("", RUN_KEY), "fb": ("", RUN_KEY), "mls": ("mls", RUN_KEY),
-               "analyze": ("structure", RUN_KEY), "calippso": ("calippso", RUN_KEY),
-               "mls_grid": ("validation", GRID_KEY)}
+#: Folder of each per-packing job's log, benchmark and checkpoint below ``logs/``, ``benchmarks/`` and
+#: ``checkpoints/``, and whether its key is a run's or a validation-grid run's. The job names are the rules' and the
+#: cost model's stages; LS and FB jobs are filed by protocol (``logs/ls/sigma0.1/rate0.5/r0.log``).
+JOB_FOLDERS = {"seed": ("seed", "run"), "ls": ("", "run"), "fb": ("", "run"), "mls": ("mls", "run"),
+               "analyze": ("structure", "run"), "calippso": ("calippso", "run"), "mls_grid": ("validation", "grid")}
 
 #: The paper's tables and the figures drawn from the dataset (Fig. 1, a rendered packing, is apart).
 TABLE_NAMES = ("table2", "table3", "table4")
 TABLE_FORMATS = ("csv", "md", "tex")
-FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces")
+FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling")
+#: Figures that need packings at several N.
+N_LADDER_FIGURES = ("scaling",)
 FIGURE_FORMATS = ("png", "pdf")
 
 
@@ -190,12 +200,14 @@ def config_hash(config: dict[str, Any]) -> str:
 @dataclass(frozen=True)
 class Run:
     """One generated packing: protocol (``ls``/``fb``), distribution key ``dist`` (``sigma0.1`` or a name; a number
-    is read as the sigma of the ``sigmas`` shorthand), compression rate gamma and replica index."""
+    is read as the sigma of the ``sigmas`` shorthand), compression rate gamma, replica index and, in an experiment
+    with a ladder of N, its number of spheres ``n`` (None: the experiment's single N, not part of key or seed)."""
 
     protocol: str
     dist: str
     rate: float
     replica: int
+    n: int | None = None
 
     def __post_init__(self):
         if not isinstance(self.dist, str):
@@ -203,8 +215,11 @@ class Run:
 
     @classmethod
     def from_wildcards(cls, wildcards) -> Run:
-        """The run of a job from its wildcards ``protocol``, ``dist``, ``rate`` and ``replica`` (path text)."""
-        return cls(wildcards.protocol, str(wildcards.dist), float(wildcards.rate), int(wildcards.replica))
+        """The run of a job from its wildcards ``protocol``, ``dist``, ``rate``, ``replica`` and, with a ladder of
+        N, ``n`` (path text)."""
+        n = getattr(wildcards, "n", None)
+        return cls(wildcards.protocol, str(wildcards.dist), float(wildcards.rate), int(wildcards.replica),
+                   None if n is None else int(n))
 
     @property
     def sigma(self) -> float:
@@ -214,14 +229,17 @@ class Run:
 
     @property
     def key(self) -> str:
-        return RUN_KEY.format(protocol=self.protocol, dist=self.dist, rate=fmt(self.rate), replica=self.replica)
+        key = RUN_KEY if self.n is None else N_LADDER_KEY
+        return key.format(n=self.n, protocol=self.protocol, dist=self.dist, rate=fmt(self.rate),
+                          replica=self.replica)
 
     def seed(self, master: int, purpose: str = "poisson") -> int:
         """The seed for ``purpose``; a ``sigmas`` run's label is its sigma (the seeds of spherejam 0.1), a named
-        distribution's is ``psd:<name>``."""
+        distribution's is ``psd:<name>``; a run of a ladder of N has ``n<N>`` first."""
         m = _SHORTHAND.fullmatch(self.dist)
         label = float(m.group(1)) if m else f"psd:{self.dist}"
-        return derive_seed(master, self.protocol, label, float(self.rate), self.replica, purpose)
+        size = () if self.n is None else (f"n{self.n}",)
+        return derive_seed(master, *size, self.protocol, label, float(self.rate), self.replica, purpose)
 
 
 @dataclass(frozen=True)
@@ -241,9 +259,8 @@ class GridRun:
 
     @property
     def key(self) -> str:
-        return GRID_KEY.format(protocol=self.source.protocol, dist=self.source.dist, rate=fmt(self.source.rate),
-                               replica=self.source.replica, factor=fmt(self.decrease_factor),
-                               g0=fmt(self.initial_rate), gf=fmt(self.final_rate))
+        return self.source.key + GRID_SUFFIX.format(factor=fmt(self.decrease_factor), g0=fmt(self.initial_rate),
+                                                    gf=fmt(self.final_rate))
 
     @property
     def ladder(self) -> dict[str, float]:
@@ -259,24 +276,28 @@ class GridRun:
 
 class Paths:
     """Every file of the workflow below one results folder, as text (what Snakemake takes). A ``key`` is a
-    :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use."""
+    :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use, with an ``{n}``
+    wildcard for a ladder of N (``n_ladder``)."""
 
-    def __init__(self, results: Path):
+    def __init__(self, results: Path, n_ladder: bool = False):
         self.results = results
+        self.run_pattern = N_LADDER_KEY if n_ladder else RUN_KEY
+        self.grid_pattern = self.run_pattern + GRID_SUFFIX
 
     def _file(self, *parts: str) -> str:
         return str(self.results.joinpath(*parts))
 
-    def packing(self, stage: str, key: str = RUN_KEY) -> str:
+    def packing(self, stage: str, key: str | None = None) -> str:
         """A file of one packing: stage is a key of :data:`PACKING_FILES`."""
-        return self._file("packings", key, PACKING_FILES[stage])
+        return self._file("packings", self.run_pattern if key is None else key, PACKING_FILES[stage])
 
-    def grid(self, key: str = GRID_KEY) -> str:
+    def grid(self, key: str | None = None) -> str:
         """The MLS output of one validation-grid run."""
-        return self._file("validation", f"{key}.h5")
+        return self._file("validation", f"{self.grid_pattern if key is None else key}.h5")
 
     def _job(self, kind: str, job: str, key: str | None, suffix: str) -> str:
-        folder, pattern = JOB_FOLDERS[job]
+        folder, which = JOB_FOLDERS[job]
+        pattern = self.run_pattern if which == "run" else self.grid_pattern
         return self._file(kind, folder, f"{pattern if key is None else key}{suffix}")
 
     def log(self, job: str, key: str | None = None) -> str:
@@ -320,9 +341,26 @@ class Paths:
         return [self.figure(ext, name) for name in names for ext in FIGURE_FORMATS]
 
 
+def sizes_of(config: dict[str, Any]) -> tuple[list[int], bool]:
+    """The experiment's numbers of spheres N in ascending order, and whether they form a ladder (``n`` given as a
+    list, even of one N: each N is then in the paths and seeds). Raises :class:`InputError` naming a bad value."""
+    value = config["n"]
+    n_ladder = isinstance(value, (list, tuple))
+    values = list(value) if n_ladder else [value]
+    if n_ladder and not values:
+        raise InputError("n=[]: give at least one N")
+    for i, v in enumerate(values):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 2:
+            where = f"n[{i}]" if n_ladder else "n"
+            raise InputError(f"{where}={v!r}: must be an integer >= 2")
+    if len(set(values)) != len(values):
+        raise InputError(f"n={values!r}: an N appears twice")
+    return sorted(int(v) for v in values), n_ladder
+
+
 class Experiment:
     """Runs, seeds and paths of one validated config. ``results`` is the output folder (default ``results``);
-    ``paths`` its :class:`Paths`."""
+    ``paths`` its :class:`Paths`; ``sizes`` the numbers of spheres N (one, or a ladder)."""
 
     def __init__(self, config: dict[str, Any]):
         self.config = config
@@ -332,15 +370,17 @@ class Experiment:
                 raise InputError(f"results={results!r}: must name the output folder (default 'results'); an empty "
                                  "path would write into the current folder")
             self.results = Path(results)
-            self.n = int(config["n"])
+            self.sizes, self.n_ladder = sizes_of(config)
             self.master_seed = int(config["seed"])
             self.sigmas = [float(s) for s in config.get("sigmas") or []]
             self.distributions = distributions_of(config)
             self.replicas = int(config.get("replicas", 1))
             self.rates = {p: rate_grid(config[p]["rates"]) for p in PROTOCOLS}
-            # extra rates for some sigmas only (e.g. the slow series of Table 2, which sigma = 0 does not use)
+            # extra rates for some sigmas (and N of a ladder) only (e.g. the slow series of Table 2, which sigma = 0
+            # does not use): (sigmas, rates, N or None for every N)
             self.extra_rates = {
-                p: [([float(s) for s in e["sigmas"]], rate_grid(e["rates"])) for e in config[p].get("extra_rates", [])]
+                p: [([float(s) for s in e["sigmas"]], rate_grid(e["rates"]), e.get("n"))
+                    for e in config[p].get("extra_rates", [])]
                 for p in PROTOCOLS
             }
             grid = config.get("validation_grid", {})
@@ -355,17 +395,20 @@ class Experiment:
         for d in self.distributions:
             if d.sigma is None:  # a named spec: parsed (and its file read) now, so a bad one fails before any job
                 fixed = d.model().fixed_n
-                if fixed is not None and fixed != self.n:
-                    raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = {self.n}: "
-                                     "set n to the list's length")
-        self.paths = Paths(self.results)
+                if fixed is not None and self.sizes != [fixed]:
+                    raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = "
+                                     f"{config['n']}: set n to the list's length")
+        self.paths = Paths(self.results, self.n_ladder)
         for p in PROTOCOLS:
             check_distinct_paths(self.rates[p], f"{p}.rates")
-            for k, (_, extra) in enumerate(self.extra_rates[p]):
+            for k, (_, extra, sizes) in enumerate(self.extra_rates[p]):
                 check_distinct_paths(self.rates[p] + extra, f"{p}.rates + {p}.extra_rates[{k}].rates")
+                for i, n in enumerate(sizes or []):
+                    if n not in self.sizes:
+                        raise InputError(f"{p}.extra_rates[{k}].n[{i}]={n!r}: not one of n {config['n']}")
         known = {fmt(s) for s in self.sigmas}
         for p in PROTOCOLS:
-            for sigmas, _ in self.extra_rates[p]:
+            for sigmas, _, _ in self.extra_rates[p]:
                 for s in sigmas:
                     if fmt(s) not in known:
                         raise InputError(f"{p}.extra_rates.sigmas={fmt(s)}: not one of sigmas")
@@ -386,14 +429,15 @@ class Experiment:
                 return d
         raise InputError(f"distribution={key!r}: not one of {', '.join(d.key for d in self.distributions)}")
 
-    def rates_for(self, protocol: str, sigma: float | str) -> list[float]:
-        """Compression rates gamma of one protocol at one distribution (a sigma of ``sigmas`` or a key):
-        ``rates`` plus the ``extra_rates`` of that sigma, in the order given, without repeats (same digits as the
-        file paths). Extra rates are given for sigmas of the shorthand only."""
+    def rates_for(self, protocol: str, sigma: float | str, n: int | None = None) -> list[float]:
+        """Compression rates gamma of one protocol at one distribution (a sigma of ``sigmas`` or a key) and N
+        (None: the largest): ``rates`` plus the ``extra_rates`` of that sigma and N, in the order given, without
+        repeats (same digits as the file paths). Extra rates are given for sigmas of the shorthand only."""
         rates = list(self.rates[protocol])
         key = sigma if isinstance(sigma, str) else shorthand_key(sigma)
-        for sigmas, extra in self.extra_rates[protocol]:
-            if any(key == shorthand_key(s) for s in sigmas):
+        n = self.largest_n if n is None else n
+        for sigmas, extra, sizes in self.extra_rates[protocol]:
+            if any(key == shorthand_key(s) for s in sigmas) and (sizes is None or n in sizes):
                 rates += extra
         unique: dict[str, float] = {}
         for r in rates:
@@ -401,21 +445,54 @@ class Experiment:
         return list(unique.values())
 
     # --- runs ----------------------------------------------------------------------------------------------------
-    def runs(self, protocol: str | None = None) -> list[Run]:
+    @property
+    def largest_n(self) -> int:
+        """The largest N: the one closest to the paper's N = 10^4, drawn in the figures of a single N."""
+        return self.sizes[-1]
+
+    def size(self, run: Run) -> int:
+        """The number of spheres N of a run."""
+        return self.sizes[0] if run.n is None else run.n
+
+    def size_of(self, wildcards) -> int:
+        """N of a job, from its wildcards (a Snakemake ``params`` or resources function)."""
+        return self.size(Run.from_wildcards(wildcards))
+
+    def runs(self, protocol: str | None = None, n: int | None = None) -> list[Run]:
+        """The packings of the experiment (of one protocol, and of one N of a ladder, if given), N outermost."""
         protocols = PROTOCOLS if protocol is None else (protocol,)
+        sizes = [None] if not self.n_ladder else self.sizes if n is None else [n]
         return [
-            Run(p, d.key, r, k)
+            Run(p, d.key, r, k, size)
+            for size in sizes
             for p in protocols
             for d in self.distributions
-            for r in self.rates_for(p, d.key)
+            for r in self.rates_for(p, d.key, size)
             for k in range(self.replicas)
         ]
 
+    @property
+    def several_n(self) -> bool:
+        """Whether the experiment has packings at 2 or more N (what finite-size scaling needs; a ladder of one N has
+        the paths and seeds of a ladder, but nothing to scale)."""
+        return len(self.sizes) > 1
+
+    @property
+    def figure_names(self) -> tuple[str, ...]:
+        """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of finite-size scaling only with
+        packings at several N."""
+        return tuple(f for f in FIGURE_NAMES if self.several_n or f not in N_LADDER_FIGURES)
+
+    def largest_runs(self, protocol: str | None = None) -> list[Run]:
+        """The packings at the largest N (all of them for a single N)."""
+        return self.runs(protocol, self.largest_n if self.n_ladder else None)
+
     def figure1_run(self) -> Run:
-        """The run whose closest jammed configuration Fig. 1 shows: the largest sigma (of the ``sigmas``; else the
-        first distribution), generated (as in the paper) by the force-biased algorithm (LS if there are no FB runs)
-        at its fastest rate, replica 0."""
-        runs = [r for r in self.runs("fb") if r.replica == 0] or [r for r in self.runs("ls") if r.replica == 0]
+        """The run whose closest jammed configuration Fig. 1 shows: at the largest N, the largest sigma (of the
+        ``sigmas``; else the first distribution), generated (as in the paper) by the force-biased algorithm (LS if
+        there are no FB runs) at its fastest rate, replica 0."""
+        runs = ([r for r in self.largest_runs("fb") if r.replica == 0]
+                or [r for r in self.largest_runs("ls") if r.replica == 0])
         order = {d.key: i for i, d in enumerate(self.distributions)}
         return max(runs, key=lambda r: (r.sigma if r.sigma == r.sigma else -1.0, -order[r.dist], r.rate))
 
@@ -438,13 +515,16 @@ class Experiment:
         return self.distribution(str(wildcards.dist)).files
 
     def grid_runs(self) -> list[GridRun]:
+        """The validation-grid runs (re-jamming LS packings of the experiment; with a ladder, those at its largest
+        N)."""
         if not self.grid_enabled:
             return []
         g = self.grid
         # the experiment's own rate values (equal to the grid's under fmt), so grid runs match their packing exactly
         canonical = {float(s): {fmt(x): x for x in self.rates_for("ls", float(s))} for s in g["sigmas"]}
+        size = self.largest_n if self.n_ladder else None  # Fig. 3 at one N: the largest
         sources = [
-            Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k)
+            Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k, size)
             for s in g["sigmas"]
             for r in rate_grid(g["ls_rates"])
             for k in range(int(g.get("replicas", 1)))

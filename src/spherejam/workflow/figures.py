@@ -17,8 +17,9 @@ import numpy as np
 from ..core.atomic import atomic_output
 from ..core.errors import InputError
 from .bands import FAST_DEFAULTS
-from .dataset import dataset_config
-from .tables import TABLE2_ROWS, completed_phi_J, compute_tables
+from . import finite_size, paper_reference
+from .dataset import at_n, dataset_config, sizes_in
+from .tables import TABLE2_ROWS, band_settings, completed_phi_J, compute_tables, fast_bands
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
 SIGMA_MARKERS = "osD^v<>ph*"
@@ -478,8 +479,102 @@ def forces(ds):
     return fig
 
 
+def scaling(ds):
+    """Finite-size scaling of the fast bands (docs/finite_size.md): per distribution and protocol, phi_J of the
+    fast packings and their sample min/max against N^-1/2, the fitted mean and the expected min/max for the measured
+    sample size, and the edges extrapolated to the paper's N = 10^4 (for its sample sizes, with 95 % bootstrap
+    intervals) and to N -> infinity, beside the paper's values."""
+    plt = _plt()
+    groups = fast_bands(ds) if len(sizes_in(ds)) > 1 else []
+    if not groups:
+        fig, ax = plt.subplots(figsize=(6.5, 3))
+        _no_data(ax, "Finite-size scaling needs packings at 2 or more N:\n"
+                     "give n as a ladder, e.g. n: [250, 500, 1000] (docs/finite_size.md)")
+        ax.set_axis_off()
+        return fig
+    bands = band_settings(ds)
+    alpha, conf = float(bands["alpha"]), float(bands["confidence"])
+    paper, paper_min = paper_reference.table3(), paper_reference.table3_min_unattributed()
+    fig, axes = plt.subplots(len(groups), 2, figsize=(9, 3.3 * len(groups)), squeeze=False)
+    target = float(paper_reference.PAPER_N)
+    for row, (group, by_protocol) in enumerate(groups):
+        for col, protocol in enumerate(("ls", "fb")):
+            ax = axes[row, col]
+            samples = by_protocol[protocol]
+            title = f"{protocol.upper()}, {_group_title(group)}"
+            ax.set_title(title, fontsize=9)
+            if len(samples) < 2:
+                _no_data(ax, f"packings at {len(samples)} N: not estimable")
+                continue
+            _scaling_panel(ax, samples, protocol, group, alpha, conf, target, paper, paper_min)
+    for ax in axes[-1]:
+        ax.set_xlabel("N$^{-1/2}$")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("φ$_J$ of fast compressions")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, ncol=3, loc="lower center", bbox_to_anchor=(0.5, 0.0))
+    fig.tight_layout(rect=(0, 0.07 + 0.02 / len(groups), 1, 1))
+    return fig
+
+
+def _group_title(group: dict) -> str:
+    return f"σ = {group['sigma']:g}" if math.isfinite(group["sigma"]) else str(group["distribution"])
+
+
+def _scaling_panel(ax, samples, protocol, group, alpha, conf, target, paper, paper_min) -> None:
+    ns = np.array(sorted(samples), dtype=float)
+    for k, n in enumerate(ns):
+        x = samples[int(n)]
+        ax.plot(np.full(len(x), n**-0.5), x, ".", color="0.6", ms=3, label=None if k else "φ$_J$ of one packing")
+        ax.plot([n**-0.5] * 2, [x.min(), x.max()], "_", color="k", ms=12, mew=1.5, ls="none",
+                label=None if k else "sample min / max")
+    fit = finite_size.fit_scaling(samples)
+    size = int(np.median([len(samples[int(n)]) for n in ns]))
+    grid = np.linspace(0.0, ns.min() ** -0.5 * 1.05, 100)
+    with np.errstate(divide="ignore"):
+        n_grid = np.where(grid > 0, grid ** -2.0, np.inf)
+    ax.plot(grid, fit.mu_inf - fit.a * grid, "-", color="tab:blue", lw=1.2, label="fitted mean μ(N)")
+    for side in finite_size.SIDES:
+        expected = [fit.edge(n, side, "minmax", size, alpha) for n in n_grid]
+        ax.plot(grid, expected, "--", color="tab:blue", lw=0.9,
+                label=f"expected min / max of {size} packings" if side == "low" else None)
+    paper_size = paper_reference.FAST_SAMPLE_SIZES[protocol]
+    for side in finite_size.SIDES:
+        [pred, limit] = finite_size.predict_edges(samples, [target, math.inf], side, "minmax", sample_size=paper_size,
+                                                  alpha=alpha, confidence=conf)
+        lo, hi = pred.interval
+        ax.errorbar([target**-0.5], [pred.value], yerr=[[pred.value - lo], [hi - pred.value]], fmt="o",
+                    color="tab:red", ms=5, capsize=3,
+                    label="extrapolated to N = 10⁴ (expected min / max of the paper's 85 LS, 165 FB packings)"
+                    if side == "low" else None)
+        lo, hi = limit.interval
+        ax.errorbar([0.0], [limit.value], yerr=[[limit.value - lo], [hi - limit.value]], fmt="D", color="tab:purple",
+                    ms=4, capsize=3, label="N → ∞ (μ$_∞$)" if side == "low" else None)
+    sigma = group["paper_sigma"]
+    ref_max = _paper_cell(paper, sigma, protocol=protocol.upper())
+    ref_min = _paper_cell(paper_min, sigma)
+    for value, label in ((ref_min, "phi_min"), (ref_max, "phi_max")):
+        if value is not None:
+            ax.plot([target**-0.5], [value], "*", color="tab:orange", ms=11, mec="k", mew=0.5,
+                    label="paper (N = 10⁴)" if label == "phi_min" else None, gid=f"paper_{label}")
+    ax.set_xlim(-0.002, grid[-1])
+    ax.grid(alpha=0.3)
+
+
+def _paper_cell(frame, sigma: float, **match):
+    if not math.isfinite(sigma):
+        return None
+    sel = np.isclose(frame.sigma.values.astype(float), sigma)
+    for key, value in match.items():
+        sel &= frame[key].values == value
+    rows = frame[sel]
+    if not len(rows):
+        return None
+    return float(rows.iloc[0]["phi_max" if "protocol" in match else "phi_min"])
+
+
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6, "fig7": fig7,
-           "structure": structure, "forces": forces}
+           "structure": structure, "forces": forces, "scaling": scaling}
 
 
 #: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5 and the tables).
@@ -487,8 +582,16 @@ PER_SIGMA = ("fig2", "fig4", "fig6", "fig7", "forces")
 
 
 def draw(name: str, ds):
+    """Figure ``name`` of a dataset. With packings at several N, every figure but ``scaling`` shows the largest N
+    (the closest to the paper's), and says so in its lower right corner."""
     if name not in FIGURES:
         raise InputError(f"figure={name!r}: must be one of {', '.join(FIGURES)}")
+    sizes = sizes_in(ds)
+    if name != "scaling" and len(sizes) > 1:
+        fig = draw(name, at_n(ds, sizes[-1]))
+        fig.text(0.995, 0.003, f"N = {sizes[-1]} (largest of N = {', '.join(map(str, sizes))})", ha="right",
+                 va="bottom", fontsize=7, color="0.35")
+        return fig
     if name in PER_SIGMA and not _sigmas(ds):
         plt = _plt()
         fig, ax = plt.subplots(figsize=(6.5, 3))

@@ -298,5 +298,45 @@ def leave_largest_out(samples: Mapping[int, np.ndarray], side: str, method: str 
                       predicted=prediction)
 
 
-__all__ = ["DEFAULT_EXPONENT", "EdgePrediction", "ScalingFit", "Validation", "bootstrap_fits", "expected_extreme",
-           "fit_scaling", "leave_largest_out", "parameter_intervals", "predict_edges", "sample_edge", "standard_edge"]
+@dataclass(frozen=True)
+class Extrapolation:
+    """A quantity estimated at a few N with confidence half-widths, extrapolated by y(N) = y_inf - c N^-x."""
+
+    n_particles: float
+    value: float
+    half_width: float  # of the ``confidence`` interval; NaN: not estimable
+
+
+def extrapolate(n_particles, values, half_widths, targets, exponent: float = DEFAULT_EXPONENT,
+                confidence: float = 0.95) -> list[Extrapolation]:
+    """Extrapolate estimates with known confidence half-widths (phi_GCP of Table 2 at each N) to each N of
+    ``targets`` (``math.inf`` for the limit) by weighted least squares in t = N^-x, weights 1/se^2 with se the
+    half-width over the normal quantile. The interval is the fit's, widened by sqrt(chi^2/dof) when the points
+    scatter more than their half-widths allow (3 or more N). Fewer than 2 finite estimates: not estimable."""
+    from scipy import stats
+
+    ns = np.asarray(n_particles, dtype=float)
+    y = np.asarray(values, dtype=float)
+    h = np.asarray(half_widths, dtype=float)
+    ok = np.isfinite(ns) & np.isfinite(y) & np.isfinite(h) & (h > 0)
+    if len(set(ns[ok].tolist())) < 2:
+        return [Extrapolation(float(t), math.nan, math.nan) for t in targets]
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    t, y, w = ns[ok] ** -exponent, y[ok], (z / h[ok]) ** 2
+    design = np.column_stack([np.ones_like(t), t])
+    cov = np.linalg.inv(design.T @ (w[:, None] * design))
+    coef = cov @ design.T @ (w * y)
+    dof = len(y) - 2
+    if dof > 0:
+        chi2 = float(np.sum(w * (y - design @ coef) ** 2))
+        cov = cov * max(1.0, chi2 / dof)
+    out = []
+    for target in (float(x) for x in targets):
+        row = np.array([1.0, 0.0 if math.isinf(target) else target ** -exponent])
+        out.append(Extrapolation(target, float(row @ coef), z * math.sqrt(float(row @ cov @ row))))
+    return out
+
+
+__all__ = ["DEFAULT_EXPONENT", "EdgePrediction", "Extrapolation", "ScalingFit", "Validation", "bootstrap_fits",
+           "expected_extreme", "extrapolate", "fit_scaling", "leave_largest_out", "parameter_intervals",
+           "predict_edges", "sample_edge", "standard_edge"]

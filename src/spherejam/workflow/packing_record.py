@@ -70,6 +70,8 @@ def entry(ds, key: str) -> dict[str, dict[str, Any]]:
         c = out["coordinates"]
         match = ((ds.grid_sigma.values == c["sigma"]) & (ds.grid_rate.values == c["rate"])
                  & (ds.grid_replica.values == c["replica"]))
+        if "grid_n" in ds:  # older datasets have one N
+            match &= ds.grid_n.values == c["n"]
         for g in np.flatnonzero(match):
             grow = ds.isel(grid_run=int(g))
             out["grid_runs"][int(g)] = {n: _value(grow[n].values) for n in list(ds.coords) + list(ds.data_vars)

@@ -31,6 +31,11 @@ CITATION = (
     "Soft Matter 10, 3826-3841 (2014), doi:10.1039/c3sm52959b"
 )
 
+#: The paper's number of spheres per packing.
+PAPER_N = 10_000
+#: The paper's fast packings per sigma behind each Table 3 band (its sample sizes for eq. 17's min and max).
+FAST_SAMPLE_SIZES = {"ls": 85, "fb": 165}
+
 #: Table 2 methods, in the paper's row order.
 TABLE2_METHODS = ("LS, initial", "FB, initial", "LS, densified", "FB, densified")
 TABLE2_SIGMAS = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3)

@@ -22,6 +22,11 @@ Every row whose phi_GCP lies below the run's own phi_RCP (Table 4, and the Table
 
 Every table carries the paper's value (:mod:`spherejam.workflow.paper_reference`), ours - paper, and that difference
 in units of our confidence half-width. The statistics are described in docs/statistics.md.
+
+A dataset with packings at several N (a ladder) gets its rows per N (column ``n``), then rows extrapolated to the
+paper's N = 10^4 and to N -> infinity (``extrapolated``; :mod:`spherejam.workflow.finite_size`, docs/finite_size.md):
+Table 3's edges predicted for the paper's sample sizes, Table 2's phi_GCP extrapolated per curve, and Table 4 from
+those by its own rule. ``finite_size.{csv,md}`` gives the fitted scaling and its leave-the-largest-N-out check.
 """
 
 from __future__ import annotations
@@ -37,7 +42,8 @@ from ..core.atomic import atomic_folder
 from ..core.errors import InputError
 from . import paper_reference
 from .bands import BAND_DEFAULTS, FAST_DEFAULTS, band_edges
-from .dataset import dataset_config, with_distributions
+from . import finite_size
+from .dataset import at_n, dataset_config, sizes_in, with_distributions
 from .fits import FIT_DEFAULTS, GCP_MONODISPERSE, N_COEFFICIENTS, fit_gcp
 
 #: Table 2 rows: (label, protocol, variable, config key of the number of slowest points).
@@ -341,6 +347,17 @@ def _label(r) -> str:
     return str(r.distribution) if "distribution" in r.index else f"{r.sigma:g}"
 
 
+def n_label(n: float, extrapolated: bool = False) -> str:
+    """An N as the tables show it: ``1000``, ``10000 (extrapolated)``, ``∞ (extrapolated)``."""
+    text = "∞" if math.isinf(n) else f"{int(n)}"
+    return f"{text} (extrapolated)" if extrapolated else text
+
+
+def _n_cells(r) -> dict:
+    """The N cell of a row of a table with several N (none for one N, whose tables are those of spherejam 0.1)."""
+    return {"N": n_label(r.n, bool(r.extrapolated))} if "n" in r.index else {}
+
+
 def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
     """The human-readable layout of a table, with the paper's value, ours − paper and that in half-widths."""
     idx = "distribution" if "distribution" in t.columns else "σ"
@@ -348,7 +365,7 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
         rows = []
         for _, r in t.iterrows():
             rows.append({
-                idx: _label(r), "method": r.curve,
+                idx: _label(r), **_n_cells(r), "method": r.curve,
                 "φ_GCP (ours)": r.status if r.status else _pm(r.phi_gcp, r.half_width),
                 "n": int(r.n_points),
                 "paper": _pm(r.paper_phi_gcp, r.paper_half_width),
@@ -367,7 +384,8 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
                                  r[f"{p}_phi_{side}_ci_high"])
                     ours = r[f"{p}_status"] or _pm(r[f"{p}_phi_{side}"], r[f"{p}_phi_{side}_half_width"])
                     rows.append({
-                        idx: _label(r), "protocol": p.upper(), "edge": edge, "n": int(r[f"{p}_n_fast"]),
+                        idx: _label(r), **_n_cells(r), "protocol": p.upper(), "edge": edge,
+                        "n": int(r[f"{p}_n_fast"]),
                         f"ours ({METHOD_LABELS.get(method, method)})": ours,
                         "sample min/max": _fmt(r[f"{p}_phi_{'min' if side == 'low' else 'max'}_fast"]),
                         "α-quantile [95 % CI]": f"{_fmt(q)} [{_fmt(lo)}, {_fmt(hi)}]",
@@ -381,7 +399,7 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
         for _, r in t.iterrows():
             for col, label in (("phi_LT", "φ_LT"), ("phi_RCP", "φ_RCP"), ("phi_GCP", "φ_GCP")):
                 rows.append({
-                    idx: _label(r), "quantity": label,
+                    idx: _label(r), **_n_cells(r), "quantity": label,
                     "ours": _pm(r[col], r[f"{col}_half_width"]),
                     "paper": _fmt(r[f"{col}_paper"]) + (" *" if r[f"{col}_paper_derived"] else ""),
                     "ours − paper": _signed(r[f"{col}_minus_paper"]),
@@ -393,7 +411,10 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
 
 
 def _where(r) -> dict:
-    return {"distribution": r.distribution, "sigma": r.sigma} if "distribution" in r.index else {"sigma": r.sigma}
+    where = {"n": r.n} if "n" in r.index else {}
+    if "distribution" in r.index:
+        where["distribution"] = r.distribution
+    return {**where, "sigma": r.sigma}
 
 
 def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
@@ -433,7 +454,7 @@ def models_formatted(t4: pd.DataFrame) -> pd.DataFrame:
     idx = "distribution" if "distribution" in t4.columns else "σ"
     rows = []
     for _, r in t4.iterrows():
-        row = {idx: _label(r), "φ_RCP (ours)": _pm(r.phi_RCP, r.phi_RCP_half_width)}
+        row = {idx: _label(r), **_n_cells(r), "φ_RCP (ours)": _pm(r.phi_RCP, r.phi_RCP_half_width)}
         for m, label in MODELS.items():
             row[label] = _fmt(r[f"model_{m}"])
             row[f"ours − {label}"] = _signed(r[f"phi_RCP_minus_{m}"])
@@ -489,26 +510,228 @@ CAPTIONS = {
 def _notes(name: str, t: pd.DataFrame) -> list[str]:
     notes = [f"Paper: {paper_reference.CITATION} (N = 10^4). A half-width is that of our 95 % confidence interval; "
              "– = not available."]
+    if "n" in t.columns:
+        sizes = ", ".join(f"{p.upper()} {k}" for p, k in paper_reference.FAST_SAMPLE_SIZES.items())
+        notes.append("Rows per N; the extrapolated rows come from the finite-size scaling of docs/finite_size.md "
+                     "(band edges: mean and width of the fast φ_J distribution as N^-1/2, the sample min/max "
+                     f"expected for the paper's sample sizes, {sizes} packings; φ_GCP as N^-1/2). Their half-width "
+                     "is half the 95 % bootstrap (edges) or fit (φ_GCP) interval.")
     if name == "table3":
         notes.append(f"† {PAPER_MIN_NOTE}; the paper gives the LS and FB minima as differing by <= 1e-3. "
                      "The sample min/max has no confidence interval (docs/statistics.md).")
     if name == "table4":
         notes.append("* paper cell lost in the text and recomputed by the paper's rule (mean of the four Table 2 "
                      "entries).")
-        flagged = [_label(r) for _, r in t.iterrows() if r.gcp_below_rcp]
+        flagged = [_label(r) + (f" (N = {n_label(r.n, r.extrapolated)})" if "n" in r.index else "")
+                   for _, r in t.iterrows() if r.gcp_below_rcp]
         if flagged:
             where = "" if "distribution" in t.columns else "σ = "
             notes.append(f"Flag: φ_GCP < φ_RCP at {where}{', '.join(flagged)} (too little data, not a result).")
     return notes
 
 
-def compute_tables(ds) -> dict[str, pd.DataFrame]:
+def _tables_at_one_n(ds) -> dict[str, pd.DataFrame]:
     t2, t3 = table2(ds), table3(ds)
     t4 = table4(ds, t2, t3)
     return {"table2": _flag_table2(t2, t4), "table3": t3, "table4": t4}
 
 
-#: The files :func:`write_tables` writes into its folder.
+#: The N a ladder's tables are extrapolated to: the paper's, and the limit.
+EXTRAPOLATION_TARGETS = (float(paper_reference.PAPER_N), math.inf)
+
+
+def _with_n(t: pd.DataFrame, n: float, extrapolated: bool) -> pd.DataFrame:
+    t = t.copy()
+    t.insert(0, "n", float(n))
+    t.insert(1, "extrapolated", extrapolated)
+    return t
+
+
+def compute_tables(ds) -> dict[str, pd.DataFrame]:
+    """Tables 2-4 of a dataset; for packings at several N, per N and extrapolated (column ``n``)."""
+    sizes = sizes_in(ds)
+    if len(sizes) <= 1:
+        return _tables_at_one_n(ds)
+    parts = [{k: _with_n(t, n, False) for k, t in _tables_at_one_n(at_n(ds, n)).items()} for n in sizes]
+    t2 = pd.concat([p["table2"] for p in parts], ignore_index=True)
+    t3x = table3_extrapolated(ds)
+    t2x = table2_extrapolated(t2)
+    for target in EXTRAPOLATION_TARGETS:
+        t3_at = t3x[t3x.n == target].drop(columns=["n", "extrapolated"]).reset_index(drop=True)
+        t2_at = t2x[t2x.n == target].drop(columns=["n", "extrapolated"]).reset_index(drop=True)
+        t4_at = table4(ds, t2_at, t3_at)
+        parts.append({"table2": _with_n(_flag_table2(t2_at, t4_at), target, True),
+                      "table3": _with_n(t3_at, target, True), "table4": _with_n(t4_at, target, True)})
+    out = {name: pd.concat([p[name] for p in parts], ignore_index=True) for name in ("table2", "table3", "table4")}
+    out["table3"].attrs["method"] = band_settings(ds)["method"]
+    out["table4"].attrs.update(parts[-1]["table4"].attrs)
+    return out
+
+
+def _fast_samples(df: pd.DataFrame, group: dict, protocol: str, limit: float) -> dict[int, np.ndarray]:
+    """N -> fast phi_J of one distribution and protocol (the Table 3 band at each N)."""
+    fast = df[(df.protocol == protocol) & (df.distribution == group["distribution"]) & (df.inverse_rate < limit)]
+    return {int(n): sub.phi_J.dropna().values for n, sub in fast.groupby("n")}
+
+
+def fast_bands(ds) -> list[tuple[dict, dict[str, dict[int, np.ndarray]]]]:
+    """Per distribution (the tables' rows, in order): its group and, per protocol, N -> the fast phi_J at that N
+    (the Table 3 band at each N)."""
+    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    df = _frame(ds)
+    df["n"] = ds["n"].values
+    return [(g, {p: _fast_samples(df, g, p, cfg[f"{p}_max_inverse_rate"]) for p in ("ls", "fb")})
+            for g in _groups(df)]
+
+
+def table3_extrapolated(ds) -> pd.DataFrame:
+    """Table 3's columns at N = 10^4 and N -> infinity, from the finite-size scaling of each band: the sample
+    min/max expected for the paper's sample sizes (85 LS, 165 FB packings) and the alpha-quantiles, each with its
+    bootstrap confidence interval; the edge ``bands.method`` reports has half of that interval as its half-width.
+    A band with packings at fewer than 2 N (at least ``bands.min_packings`` each) is not estimable."""
+    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    bands = band_settings(ds)
+    method, alpha, conf = bands["method"], float(bands["alpha"]), float(bands["confidence"])
+    minimum = max(int(bands["min_packings"]), 2)
+    paper, paper_min = paper_reference.table3(), paper_reference.table3_min_unattributed()
+    df = _frame(ds)
+    df["n"] = ds["n"].values
+    named = _has_named(df)
+    rows = {t: [] for t in EXTRAPOLATION_TARGETS}
+    for group in _groups(df):
+        cells = {t: _start(group, named) for t in EXTRAPOLATION_TARGETS}
+        for protocol in ("ls", "fb"):
+            samples = _fast_samples(df, group, protocol, cfg[f"{protocol}_max_inverse_rate"])
+            usable = {n: x for n, x in samples.items() if len(x) >= minimum}
+            size = paper_reference.FAST_SAMPLE_SIZES[protocol]
+            p = f"{protocol}_"
+            status = "" if len(usable) >= 2 else not_estimable(
+                len(usable), f"N values with >= {minimum} fast packings; finite-size scaling needs 2")
+            for side in finite_size.SIDES:
+                pred = {m: finite_size.predict_edges(usable, EXTRAPOLATION_TARGETS, side, m,
+                                                     sample_size=size if m == "minmax" else None, alpha=alpha,
+                                                     confidence=conf) if not status else None
+                        for m in finite_size.METHODS}
+                ref = (_paper_row(paper_min, group["paper_sigma"]) if side == "low"
+                       else _paper_row(paper, group["paper_sigma"], protocol=protocol.upper()))
+                paper_value = math.nan if ref is None else float(ref.phi_min if side == "low" else ref.phi_max)
+                for i, t in enumerate(EXTRAPOLATION_TARGETS):
+                    row = cells[t]
+                    row[p + "n_fast"], row[p + "status"] = size, status
+                    mm, q = (pred["minmax"][i], pred["quantile"][i]) if not status else (None, None)
+                    row[p + ("phi_min_fast" if side == "low" else "phi_max_fast")] = mm.value if mm else math.nan
+                    row[f"{p}phi_{side}_quantile"] = q.value if q else math.nan
+                    row[f"{p}phi_{side}_ci_low"], row[f"{p}phi_{side}_ci_high"] = (
+                        q.interval if q else (math.nan, math.nan))
+                    chosen = pred[method][i] if not status else None
+                    value = chosen.value if chosen else math.nan
+                    half = (chosen.interval[1] - chosen.interval[0]) / 2 if chosen else math.nan
+                    row[f"{p}phi_{side}"], row[f"{p}phi_{side}_half_width"] = value, half
+                    row[f"{p}phi_{side}_paper"] = paper_value
+                    row[f"{p}phi_{side}_minus_paper"], row[f"{p}phi_{side}_minus_paper_in_half_widths"] = _compare(
+                        value, half, paper_value)
+        for t in EXTRAPOLATION_TARGETS:
+            rows[t].append(cells[t])
+    out = pd.concat([_with_n(pd.DataFrame(rows[t]), t, True) for t in EXTRAPOLATION_TARGETS], ignore_index=True)
+    out.attrs["method"] = method
+    return out
+
+
+def finite_size_table(ds) -> pd.DataFrame:
+    """Per distribution, protocol and band edge of a ladder of N: the scaling fitted to every N (mu_inf, a, b of
+    docs/finite_size.md) and its honest check, the edge at the largest N predicted from the smaller N alone against
+    the one measured there, with the prediction interval (needs 3 N; else "not estimable")."""
+    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    bands = band_settings(ds)
+    method, alpha, conf = bands["method"], float(bands["alpha"]), float(bands["confidence"])
+    minimum = max(int(bands["min_packings"]), 2)
+    df = _frame(ds)
+    df["n"] = ds["n"].values
+    named = _has_named(df)
+    rows = []
+    for group in _groups(df):
+        for protocol in ("ls", "fb"):
+            samples = _fast_samples(df, group, protocol, cfg[f"{protocol}_max_inverse_rate"])
+            usable = {n: x for n, x in samples.items() if len(x) >= minimum}
+            base = {**_start(group, named), "protocol": protocol,
+                    "n_values": " ".join(str(n) for n in sorted(usable)),
+                    "packings": " ".join(str(len(usable[n])) for n in sorted(usable))}
+            fit = finite_size.fit_scaling(usable) if len(usable) >= 2 else None
+            for side in finite_size.SIDES:
+                row = {**base, "edge": side, "mu_inf": fit.mu_inf if fit else math.nan,
+                       "a": fit.a if fit else math.nan, "b": fit.b if fit else math.nan, "method": method}
+                if len(usable) >= 3:
+                    v = finite_size.leave_largest_out(usable, side, method, alpha, confidence=conf)
+                    row.update(held_out_n=v.n_particles, measured=v.measured, predicted=v.predicted.value,
+                               error=v.error, prediction_low=v.predicted.prediction_interval[0],
+                               prediction_high=v.predicted.prediction_interval[1],
+                               within=v.within_prediction_interval, status="")
+                else:
+                    row.update(held_out_n=math.nan, measured=math.nan, predicted=math.nan, error=math.nan,
+                               prediction_low=math.nan, prediction_high=math.nan, within=False,
+                               status=not_estimable(len(usable), "N values; leaving one out needs 3"))
+                rows.append(row)
+    return pd.DataFrame(rows)
+
+
+FINITE_SIZE_CAPTION = ("Finite-size scaling of the fast bands: the fit to every N, and the edge at the largest N "
+                       "predicted from the smaller N alone")
+
+
+def finite_size_formatted(t: pd.DataFrame) -> pd.DataFrame:
+    idx = "distribution" if "distribution" in t.columns else "σ"
+    rows = []
+    for _, r in t.iterrows():
+        lo, hi = r.prediction_low, r.prediction_high
+        rows.append({
+            idx: _label(r), "protocol": r.protocol.upper(), "edge": "φ_min^fast" if r.edge == "low" else "φ_max^fast",
+            "N (packings)": ", ".join(f"{n} ({k})" for n, k in zip(r.n_values.split(), r.packings.split())),
+            "μ_∞": _fmt(r.mu_inf), "a": _fmt(r.a, 3), "b": _fmt(r.b, 3),
+            "held-out N": r.status if r.status else f"{int(r.held_out_n)}",
+            "measured": _fmt(r.measured), "predicted": _fmt(r.predicted),
+            "predicted − measured": _signed(r.error),
+            "95 % prediction interval": "–" if r.status else f"[{_fmt(lo)}, {_fmt(hi)}]",
+            "inside?": "" if r.status else ("yes" if r.within else "**no**"),
+        })
+    return pd.DataFrame(rows).set_index(idx) if rows else pd.DataFrame()
+
+
+FINITE_SIZE_NOTES = [
+    "Model (docs/finite_size.md): mean μ(N) = μ_∞ − a N^-1/2, standard deviation s(N) = b N^-1/2, normal shape; "
+    "fitted before any comparison with the paper. The held-out check refits without the largest N and predicts "
+    "the edge that a sample of the measured size shows there.",
+]
+
+
+def table2_extrapolated(t2: pd.DataFrame) -> pd.DataFrame:
+    """Table 2 at N = 10^4 and N -> infinity: each curve's estimable phi_GCP at the ladder's N, extrapolated as
+    phi_GCP(N) = phi_GCP(inf) - c N^-1/2 (:func:`spherejam.workflow.finite_size.extrapolate`)."""
+    if t2.empty:
+        return pd.DataFrame(columns=["n", "extrapolated"] + list(TABLE2_COLUMNS))
+    key = "distribution" if "distribution" in t2.columns else "sigma"
+    rows = []
+    for _, sub in t2.groupby(["curve", key], sort=False):
+        ok = sub[sub.status == ""]
+        predictions = finite_size.extrapolate(ok.n, ok.phi_gcp, ok.half_width, EXTRAPOLATION_TARGETS)
+        first = sub.iloc[0]
+        for pred in predictions:
+            row = {c: first[c] for c in ("curve", "protocol", "variable", "distribution", "psd", "sigma")
+                   if c in sub.columns}
+            row.update(n=pred.n_particles, extrapolated=True, phi_gcp=pred.value, half_width=pred.half_width,
+                       n_points=int(ok.n_points.sum()),
+                       status="" if math.isfinite(pred.value) else not_estimable(
+                           len(ok), "N values with an estimable fit; extrapolation needs 2"))
+            row["paper_phi_gcp"] = float(first.paper_phi_gcp)  # the paper's value is the same at every N
+            row["paper_half_width"] = float(first.paper_half_width)
+            row["minus_paper"], row["minus_paper_in_half_widths"] = _compare(
+                row["phi_gcp"], row["half_width"], row["paper_phi_gcp"])
+            rows.append(row)
+    out = pd.DataFrame(rows)
+    out["estimable"] = out.status == ""
+    return out
+
+
+#: The files :func:`write_tables` writes into its folder (and, for a ladder of N, ``finite_size.{csv,md}``).
 TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") for ext in ("csv", "md", "tex")) + (
     "comparison.csv", "comparison.md")
 
@@ -531,6 +754,10 @@ def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
         texts[f"{name}.csv"] = t.to_csv(index=False, float_format="%.10g")
         texts[f"{name}.md"] = md
         texts[f"{name}.tex"] = tex
+    if len(sizes_in(ds)) > 1:
+        scaling = finite_size_table(ds)
+        texts["finite_size.csv"] = scaling.to_csv(index=False, float_format="%.10g")
+        texts["finite_size.md"] = _markdown(finite_size_formatted(scaling), FINITE_SIZE_CAPTION, FINITE_SIZE_NOTES)
     comp = comparison(tables)
     texts["comparison.csv"] = comp.to_csv(index=False, float_format="%.10g")
     texts["comparison.md"] = comparison_markdown(tables, comp)

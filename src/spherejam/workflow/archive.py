@@ -1,0 +1,144 @@
+"""A results folder packed for the repository or a paper's supplement: the dataset, the tables, the figures and,
+within a size limit, chosen jammed packings, with a README that says what it holds and which code made it.
+
+The archive is a results folder in miniature (the same layout), so ``spherejam browse ARCHIVE/dataset.nc`` with
+``--tables``, ``--figure`` and ``--packing`` works on it as on the run itself; a packing left out says where it
+was looked for. It is written as a whole (:func:`~spherejam.core.atomic.atomic_folder`): a failed archive leaves
+the old one as it was.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.atomic import atomic_folder
+from ..core.errors import InputError
+from .dataset import dataset_config, open_dataset, sizes_in
+from .experiment import PACKING_FILES
+
+#: The files of the run's own folders an archive takes: every table and figure the workflow wrote.
+KEPT = {"tables": ("*.csv", "*.md", "*.tex"), "figures": ("*.png", "*.pdf")}
+
+
+@dataclass(frozen=True)
+class ArchivePlan:
+    """What :func:`write_archive` copies: archive-relative name -> source file, and the total size in bytes."""
+
+    files: dict[str, Path]
+    size: int
+
+
+def plan_archive(results: str | os.PathLike, packings: list[str] = (), stages: tuple[str, ...] = ("jammed",)
+                 ) -> ArchivePlan:
+    """The files of an archive of the results folder ``results``: its ``dataset.nc``, ``experiment.json``, tables
+    and figures, and the ``stages`` files (keys of :data:`PACKING_FILES`) of every packing whose key matches one of
+    the glob patterns ``packings`` (``n1000/*``, ``ls/sigma0.3/*``)."""
+    results = Path(results)
+    dataset = results / "dataset.nc"
+    if not dataset.is_file():
+        raise InputError(f"results={results}: no dataset.nc there (run the workflow first)")
+    for stage in stages:
+        if stage not in PACKING_FILES:
+            raise InputError(f"--stage={stage!r}: must be one of {', '.join(PACKING_FILES)}")
+    files = {"dataset.nc": dataset}
+    if (results / "experiment.json").is_file():
+        files["experiment.json"] = results / "experiment.json"
+    for folder, patterns in KEPT.items():
+        for pattern in patterns:
+            for path in sorted((results / folder).glob(pattern)):
+                files[f"{folder}/{path.name}"] = path
+    ds = open_dataset(dataset)
+    keys = [str(k) for k in ds["key"].values]
+    for pattern in packings:
+        chosen = [k for k in keys if fnmatch.fnmatchcase(k, pattern)]
+        if not chosen:
+            raise InputError(f"--packings={pattern!r}: matches no packing of the dataset (keys look like {keys[0]})")
+        for key in chosen:
+            for stage in stages:
+                path = results / "packings" / key / PACKING_FILES[stage]
+                if not path.is_file():
+                    raise InputError(f"--packings={pattern!r}: {path} is missing")
+                files[f"packings/{key}/{PACKING_FILES[stage]}"] = path
+    return ArchivePlan(files, sum(p.stat().st_size for p in files.values()))
+
+
+def readme(ds, plan: ArchivePlan, command: str) -> str:
+    """The archive's README.md: what it holds, which code and config made it, and how to look at it."""
+    config = dataset_config(ds)
+    sizes = sizes_in(ds)
+    n_packings = len({Path(name).parent for name in plan.files if name.startswith("packings/")})
+    figures = sorted({Path(n).stem for n in plan.files if n.startswith("figures/")})
+    lines = [
+        "# spherejam results archive",
+        "",
+        f"Made by `{command}` from a finished workflow run.",
+        "",
+        "| | |",
+        "|---|---|",
+        f"| code | spherejam, git commit `{ds.attrs.get('git_commit', 'unknown')}` ({ds.attrs.get('source', '')}) |",
+        f"| config | hash `{ds.attrs.get('config_hash', '')}`; the whole config is the dataset's attribute `config` "
+        "and `experiment.json` |",
+        f"| dataset created | {ds.attrs.get('created', '')} |",
+        f"| N | {', '.join(map(str, sizes))} |",
+        f"| size distributions | {', '.join(sorted(set(str(d) for d in ds['distribution'].values)))} |",
+        f"| packings | {ds.sizes['packing']} in the dataset; the files of {n_packings} of them here |",
+        f"| master seed | {config.get('seed')} |",
+        "",
+        "Contents: `dataset.nc` (every packing's scalars and provenance), `tables/` (Tables 2-4 next to the paper's, "
+        "`comparison.md`" + (", `finite_size.md`" if "tables/finite_size.md" in plan.files else "") + "), "
+        f"`figures/` ({', '.join(figures)})" + (", `packings/` (jammed packings, spherejam HDF5)" if n_packings
+                                                  else "") + ".",
+        "",
+        "Look at it without running anything:",
+        "",
+        "```bash",
+        "spherejam browse dataset.nc                 # summary and the packings",
+        "spherejam browse dataset.nc --tables        # Tables 2-4 beside the paper's",
+        "spherejam browse dataset.nc --figure fig5   # redraw a figure from the dataset",
+        "spherejam browse dataset.nc --packing KEY   # one packing's record (and its files, where archived)",
+        "```",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def write_archive(results: str | os.PathLike, out: str | os.PathLike, packings: list[str] = (),
+                  stages: tuple[str, ...] = ("jammed",), max_mb: float = 20.0, command: str = "spherejam archive"
+                  ) -> ArchivePlan:
+    """Copy :func:`plan_archive` of ``results`` to the folder ``out`` (replacing an archive there as a whole), with
+    its README.md. Refuses one larger than ``max_mb`` megabytes before writing anything."""
+    plan = plan_archive(results, list(packings), stages)
+    if plan.size > max_mb * 1e6:
+        raise InputError(f"--max-mb={max_mb:g}: the archive would hold {plan.size / 1e6:.1f} MB; choose fewer "
+                         "--packings (or raise the limit)")
+    ds = open_dataset(Path(results) / "dataset.nc")
+    text = readme(ds, plan, command)
+    names = [*plan.files, "README.md"]
+    out = Path(out)
+    old = None
+    if out.exists():  # replaced as a whole, so that no file of an older archive lingers
+        if not (out / "dataset.nc").is_file():
+            raise InputError(f"output={out}: exists and is not an archive (no dataset.nc); choose a new folder")
+        old = out.with_name(f".{out.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        os.rename(out, old)
+    try:
+        with atomic_folder(out, names) as tmp:  # out is missing now: the new archive appears in one rename
+            for name, source in plan.files.items():
+                (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(source, tmp / name)
+            (tmp / "README.md").write_text(text)
+    except BaseException:
+        if old is not None:
+            os.rename(old, out)
+        raise
+    if old is not None:
+        shutil.rmtree(old)
+    return plan
+
+
+__all__ = ["ArchivePlan", "plan_archive", "readme", "write_archive"]
