@@ -210,7 +210,8 @@ def test_forces_and_gaps_are_pooled_per_distribution_named_ones_too(monkeypatch,
     ds = xr.Dataset({k: v for k, v in out.items()}, coords=coords)
     fig = draw("forces", ds)
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
-    assert labels[:4] == ["σ = 0", "all contacts", "σ = 0.1", "gauss"]
+    assert [t.split(":")[0] for t in labels[:4]] == ["σ = 0", "all contacts", "σ = 0.1", "gauss"]
+    assert labels[3].startswith("gauss: θ_e = ")
     old = ds.drop_vars(POOLED).swap_dims({POOLED: "dist_sigma"}).isel(dist_sigma=[0, 1])
     assert "dist_sigma" in old.dims
     new = pooled_by_distribution(old)

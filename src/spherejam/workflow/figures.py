@@ -459,6 +459,9 @@ def forces(ds):
         if pdf in ds and centres in ds.coords:
             labels = [f"σ = {s:g}" if np.isfinite(s) else str(key)
                       for key, s in zip(ds.dist_distribution.values, ds.dist_sigma.values)]
+            if expo in ds:
+                labels = [f"{label}: {symbol} = {v:.2f}" for label, v in zip(labels, ds[expo].values)]
+                ax.set_title(f"fitted small-{var.split('_')[-1]} exponent {symbol} (mean field {mf})", fontsize=9)
             for k, label in enumerate(labels):
                 y = ds[pdf].isel(dist_distribution=k).values
                 ok = np.isfinite(y) & (y > 0)
@@ -468,9 +471,6 @@ def forces(ds):
                     ok = np.isfinite(y_all) & (y_all > 0)
                     ax.loglog(ds[centres].values[ok], y_all[ok], ":", color=line.get_color(),
                               label="all contacts" if k == 0 else None)
-            if expo in ds:
-                txt = ", ".join(f"{v:.2f}" for v in ds[expo].values)
-                ax.set_title(f"fitted {symbol} per distribution: {txt} (mean field {mf})", fontsize=9)
             ax.legend(fontsize=8)
         else:
             _no_data(ax, f"{var} distribution not in dataset")
