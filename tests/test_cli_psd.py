@@ -79,3 +79,18 @@ def test_psd_command_json(capsys):
 def test_psd_command_warns_about_box(capsys):
     assert main(["psd", "bidisperse:ratio=4,small=0.3,by=volume", "--n", "40"]) == 0
     assert "below CALiPPSO's limit L > 2 d_max" in capsys.readouterr().out
+
+
+def test_box_is_checked_at_the_distributions_jamming_density(capsys):
+    """A 1:4 mixture at N = 200 fits CALiPPSO's box at phi = 0.64 (L = 2.02 d_max) but jams near 0.69, where it does
+    not: the box is checked at its Farr-Groot phi_RCP, so the warning comes before the run, not from CALiPPSO."""
+    from spherejam.analysis.farr_groot import phi_rcp_distribution
+    from spherejam.core.size_distribution import parse
+
+    spec = "bidisperse:ratio=4,small=0.3,by=volume"
+    assert main(["psd", spec, "--n", "200", "--json"]) == 0
+    sample = json.loads(capsys.readouterr().out)["sample"]
+    assert sample["box_at_phi"] == pytest.approx(phi_rcp_distribution(parse(spec))) and sample["box_at_phi"] > 0.7
+    assert sample["box_over_dmax"] < 2 < sample["box_over_dmax"] * (sample["box_at_phi"] / 0.64) ** (1 / 3)
+    assert main(["psd", "lognormal:sigma=0", "--n", "200", "--json"]) == 0  # never below 0.64
+    assert json.loads(capsys.readouterr().out)["sample"]["box_at_phi"] == pytest.approx(0.6435, abs=1e-3)

@@ -155,7 +155,7 @@ def failed_jobs(log: Path) -> list[str]:
 def _warn_box(exp) -> None:
     """Warn about distributions whose largest sphere (in a sample of N) leaves the box below CALiPPSO's limit."""
     from ..core.seeding import rng_for
-    from .psd import BOX_LIMIT, box_side
+    from .psd import BOX_LIMIT, box_phi, box_side
 
     for d in exp.distributions:
         model = d.model()
@@ -163,10 +163,12 @@ def _warn_box(exp) -> None:
         # the largest sphere any packing may get: the distribution's bound if it has one, else the largest of 20
         bounded = math.isfinite(model.descriptors().size_ratio)
         d_max = float(model.support()[0].max()) if bounded else None
-        ratio = min(box_side(x) / (d_max or float(x.max())) for x in samples)
+        phi = box_phi(model)
+        ratio = min(box_side(x, phi) / (d_max or float(x.max())) for x in samples)
         if ratio <= BOX_LIMIT:
-            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} the box is about {ratio:.2f} d_max; CALiPPSO "
-                  f"needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise --n)", flush=True)
+            print(f"warning: {d.key} ({d.spec}): at N = {exp.n} and φ = {phi:.3f} the box is about {ratio:.2f} "
+                  f"d_max; CALiPPSO needs L > {BOX_LIMIT:g} d_max and will refuse to certify such packings (raise "
+                  "--n)", flush=True)
 
 
 def _interval(value: float, half: float, n: str) -> str:
