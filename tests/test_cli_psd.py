@@ -82,7 +82,7 @@ def test_psd_command_warns_about_box(capsys):
 
 
 def test_box_is_checked_at_the_distributions_jamming_density(capsys):
-    """A 1:4 mixture at N = 200 fits CALiPPSO's box at phi = 0.64 (L = 2.02 d_max) but jams near 0.69, where it does
+    """A 1:4 mixture at N = 200 fits CALiPPSO's box at phi = 0.64 (L = 2.02 d_max) but jams well above it, where it does
     not: the box is checked at its Farr-Groot phi_RCP, so the warning comes before the run, not from CALiPPSO."""
     from spherejam.analysis.farr_groot import phi_rcp_distribution
     from spherejam.core.size_distribution import parse

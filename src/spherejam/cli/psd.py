@@ -10,7 +10,7 @@ from . import seed_int
 
 #: Lowest jamming density at which the box side is estimated for CALiPPSO's box limit (a typical monodisperse
 #: phi_J); a polydisperse distribution's box is estimated at its Farr-Groot phi_RCP (:func:`box_phi`), since a denser
-#: packing has a smaller box: a 1:4 mixture at N = 200 fits at 0.64 and jams at about 0.69, where it no longer does.
+#: packing has a smaller box: a 1:4 mixture at N = 200 fits at 0.64 but jams well above it, where it does not.
 PHI_BOX = 0.64
 #: CALiPPSO's limit, L > ~2 d_max: its LP cutoff must stay below L/2 while exceeding the largest contact distance
 #: (calippso/schedule.py). LS, MLS and FB run in any box (docs/algorithms.md, "Any box, any size ratio").
