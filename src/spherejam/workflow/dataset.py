@@ -208,8 +208,8 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
 
 
 FORCE_BINS = np.geomspace(1e-4, 10.0, 41)  # f / <f>
-POOLED = "dist_distribution"  # the dimension of the pooled force and gap distributions: one per size distribution
 GAP_BINS = np.geomspace(1e-12, 1e-1, 45)  # h = r / D_ij - 1
+POOLED = "dist_distribution"  # the dimension of the pooled force and gap distributions: one per size distribution
 
 
 def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
