@@ -82,3 +82,18 @@ def test_psd_command_reports_the_box_and_no_calippso_limit(capsys):
     out = capsys.readouterr().out
     box = float(out.split("mean diameters = ")[1].split(" d_max")[0])
     assert box < 2.0 and "CALiPPSO" not in out
+
+
+def test_box_is_checked_at_the_distributions_jamming_density(capsys):
+    """The box is reported at the density the packings jam at, the distribution's Farr-Groot phi_RCP (at least 0.64):
+    a 1:4 mixture at N = 200 has L = 2.02 d_max at phi = 0.64, but jams well above it, where its box is smaller."""
+    from spherejam.analysis.farr_groot import phi_rcp_distribution
+    from spherejam.core.size_distribution import parse
+
+    spec = "bidisperse:ratio=4,small=0.3,by=volume"
+    assert main(["psd", spec, "--n", "200", "--json"]) == 0
+    sample = json.loads(capsys.readouterr().out)["sample"]
+    assert sample["box_at_phi"] == pytest.approx(phi_rcp_distribution(parse(spec))) and sample["box_at_phi"] > 0.7
+    assert sample["box_over_dmax"] < 2 < sample["box_over_dmax"] * (sample["box_at_phi"] / 0.64) ** (1 / 3)
+    assert main(["psd", "lognormal:sigma=0", "--n", "200", "--json"]) == 0  # never below 0.64
+    assert json.loads(capsys.readouterr().out)["sample"]["box_at_phi"] == pytest.approx(0.6435, abs=1e-3)

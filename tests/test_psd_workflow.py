@@ -177,3 +177,43 @@ def test_psd_file_is_an_input_of_the_jobs_that_read_it(tmp_path):
         blocks = [b for b in jobs if b.startswith(f"{rule}:")]
         assert blocks and all(str(powder) in b.split("output:")[0] for b in blocks), rule
     assert Experiment(config).psd_inputs() == [str(powder)]
+
+
+def test_forces_and_gaps_are_pooled_per_distribution_named_ones_too(monkeypatch, tmp_path):
+    """Each distribution (a ``sigmas`` key or a named one) pools the contacts of its own CALiPPSO packings only, and
+    the force figure draws every one of them; a dataset pooled per sigma (before) reads with today's dimension."""
+    import spherejam.core.packing_io as packing_io
+    from spherejam.workflow.dataset import POOLED, collect_distributions, pooled_by_distribution
+    from spherejam.workflow.figures import draw
+
+    exp = Experiment(_config(results=str(tmp_path), distributions={"gauss": "gaussian:delta=0.2"}))
+    per_packing = {"sigma0": 4, "sigma0.1": 6, "gauss": 10}  # contacts per packing, different per distribution
+    rng = np.random.default_rng(0)
+
+    def contacts(path, group):
+        assert group == "contacts"
+        dist = next(k for k in per_packing if f"/{k}/" in str(path))
+        m = per_packing[dist]
+        return {"forces": rng.exponential(size=m), "extended": np.ones(m), "gaps": rng.uniform(1e-6, 1e-2, m)}
+
+    monkeypatch.setattr(packing_io, "read_group", contacts)
+    out = collect_distributions(exp)
+    coords = out.pop("_coords")
+    assert list(coords[POOLED][1]) == ["sigma0", "sigma0.1", "gauss"]
+    sigma = coords["dist_sigma"][1]
+    assert list(sigma[:2]) == [0.0, 0.1] and np.isnan(sigma[2])
+    runs_per_dist = len(exp.runs()) // 3
+    assert list(out["n_forces"][1]) == [runs_per_dist * m for m in per_packing.values()]
+    assert list(out["n_gaps"][1]) == list(out["n_forces"][1])
+    assert out["force_pdf"][1].shape == (3, 40) and np.all(out["gap_pdf"][1].sum(axis=1) > 0)
+
+    ds = xr.Dataset({k: v for k, v in out.items()}, coords=coords)
+    fig = draw("forces", ds)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert [t.split(":")[0] for t in labels[:4]] == ["σ = 0", "all contacts", "σ = 0.1", "gauss"]
+    assert labels[3].startswith("gauss: θ_e = ")
+    old = ds.drop_vars(POOLED).swap_dims({POOLED: "dist_sigma"}).isel(dist_sigma=[0, 1])
+    assert "dist_sigma" in old.dims
+    new = pooled_by_distribution(old)
+    assert list(new[POOLED].values) == ["sigma0", "sigma0.1"]
+    np.testing.assert_array_equal(new.force_pdf.values, ds.force_pdf.values[:2])

@@ -81,6 +81,18 @@ def test_bidisperse_sample_has_exact_composition():
     assert vol_small == pytest.approx(0.3, abs=0.002)
 
 
+def test_bidisperse_refuses_a_sample_without_one_of_its_sizes():
+    """1:10 with 30 % small spheres by volume has 0.23 % large spheres by number: none at N = 200, where the sample
+    would silently be equal spheres. The error says from which N both sizes are present."""
+    dist = parse("bidisperse:ratio=10,small=0.3,by=volume")
+    with pytest.raises(InputError, match=r"at N = 200 the large spheres' number share 0.00233 rounds to no sphere.*"
+                                         r"use N >= 215"):
+        dist.draw(200, rng_for(0))
+    assert np.sum(dist.draw(215, rng_for(0), normalise=False) == 10.0) == 1
+    with pytest.raises(InputError, match="the small spheres' number share"):
+        parse("bidisperse:ratio=2,small=0.001,by=number").draw(100, rng_for(0))
+
+
 def test_lognormal_spec_is_the_sigma_path_bitwise():
     for sigma in (0.0, 0.1, 0.3):
         a = poisson_packing(200, sigma, seed=5)

@@ -8,7 +8,9 @@ import math
 from ..core.validation import FIELDS, UNIT_OPEN
 from . import seed_int
 
-#: Jamming density at which the box side of a sample is estimated (a typical phi_J).
+#: Lowest jamming density at which the box side of a sample is estimated (a typical monodisperse phi_J); a
+#: polydisperse distribution's box is estimated at its Farr-Groot phi_RCP (:func:`box_phi`): a denser packing has
+#: a smaller box.
 PHI_BOX = 0.64
 
 
@@ -27,9 +29,17 @@ def register(sub) -> None:
     p.set_defaults(func=_psd)
 
 
-def box_side(diameters) -> float:
-    """Side L of the periodic cube in which mean-1 ``diameters`` fill PHI_BOX (a typical jamming density)."""
-    return (len(diameters) * math.pi / 6 * float((diameters**3).mean()) / PHI_BOX) ** (1 / 3)
+def box_phi(dist) -> float:
+    """The packing fraction at which a distribution's box is checked against CALiPPSO's limit: its Farr-Groot
+    phi_RCP, at least PHI_BOX."""
+    from ..analysis.farr_groot import phi_rcp_distribution
+
+    return max(PHI_BOX, float(phi_rcp_distribution(dist)))
+
+
+def box_side(diameters, phi: float = PHI_BOX) -> float:
+    """Side L of the periodic cube in which mean-1 ``diameters`` fill the packing fraction ``phi``."""
+    return (len(diameters) * math.pi / 6 * float((diameters**3).mean()) / phi) ** (1 / 3)
 
 
 def describe(spec: str, n: int | None = None, seed: int = 0, phi_mono: float | None = None) -> dict:
@@ -48,9 +58,10 @@ def describe(spec: str, n: int | None = None, seed: int = 0, phi_mono: float | N
         n = dist.fixed_n
     if n is not None:
         d = dist.draw(n, rng_for(seed))
-        box = box_side(d)
+        phi = box_phi(dist)
+        box = box_side(d, phi)
         out["sample"] = {"n": int(n), "seed": int(seed), **sample_descriptors(d).as_dict(),
-                         "box_at_phi": PHI_BOX, "box": box, "box_over_dmax": box / float(d.max())}
+                         "box_at_phi": phi, "box": box, "box_over_dmax": box / float(d.max())}
     out["models"] = [{"model": p.model, "phi_rcp": p.phi, "in_range": p.in_range, "validity": p.note,
                       "citation": p.citation} for p in predictions(dist, phi_mono)]
     return out
@@ -76,7 +87,7 @@ def _psd(args) -> int:
     if "sample" in info:
         s = info["sample"]
         print(f"  sample (N = {s['n']}, seed {s['seed']}): {_line(s)}")
-        print(f"  box at φ = {s['box_at_phi']:g}: L = {s['box']:.3g} mean diameters = {s['box_over_dmax']:.3g} d_max")
+        print(f"  box at φ = {s['box_at_phi']:.4g}: L = {s['box']:.3g} mean diameters = {s['box_over_dmax']:.3g} d_max")
     print("  φ_RCP models:")
     for m in info["models"]:
         flag = "" if m["in_range"] else "  [outside the stated range]"

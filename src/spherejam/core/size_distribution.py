@@ -278,14 +278,18 @@ class Discrete(SizeDistribution):
     weights: tuple = ()  # number fractions, sum 1
     family = "discrete"
 
-    def _draw(self, n, rng):
+    def _counts(self, n) -> np.ndarray:
+        """Spheres of each size in a sample of ``n``: round(n x_i) by largest remainders."""
         w = np.asarray(self.weights)
         exact = w * n
         counts = np.floor(exact).astype(int)
         rest = n - counts.sum()
         if rest:
             counts[np.argsort(-(exact - counts), kind="stable")[:rest]] += 1
-        d = np.repeat(np.asarray(self.sizes, dtype=float), counts)
+        return counts
+
+    def _draw(self, n, rng):
+        d = np.repeat(np.asarray(self.sizes, dtype=float), self._counts(n))
         return rng.permutation(d)
 
     def _raw_moments(self):
@@ -306,6 +310,14 @@ class Bidisperse(Discrete):
     volume (``by``); a volume share x_v is a number share x_v / (x_v + (1 - x_v)/ratio^3)."""
 
     family = "bidisperse"
+
+    def _draw(self, n, rng):
+        # a mixture asked for must not silently become equal spheres (a table's rare classes may round to none)
+        for label, share, count in zip(("small", "large"), self.weights, self._counts(n)):
+            if count == 0:
+                raise InputError(f"{self.spec}: at N = {n} the {label} spheres' number share {share:.3g} rounds to "
+                                 f"no sphere, the sample would be monodisperse; use N >= {math.floor(0.5 / share) + 1}")
+        return super()._draw(n, rng)
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
 from ..engines.result import RunStats, stats_from_metadata
 from .config import check_config
-from .experiment import Experiment, GridRun, Run, config_hash
+from .experiment import Experiment, GridRun, Run, config_hash, shorthand_key
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
 VARIABLES: dict[str, tuple[str, str]] = {
@@ -212,6 +212,7 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
 
 FORCE_BINS = np.geomspace(1e-4, 10.0, 41)  # f / <f>
 GAP_BINS = np.geomspace(1e-12, 1e-1, 45)  # h = r / D_ij - 1
+POOLED = "dist_distribution"  # the dimension of the pooled force and gap distributions: one per size distribution
 
 
 def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -221,19 +222,19 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 
 def collect_distributions(exp: Experiment) -> dict[str, tuple]:
-    """Contact-force and gap distributions of the CALiPPSO-certified packings, pooled per sigma of the ``sigmas``
-    runs (named distributions are not pooled) at the largest N, with the small-argument power-law exponents fitted
-    on the pooled samples."""
+    """Contact-force and gap distributions of the CALiPPSO-certified packings at the largest N, pooled per size
+    distribution (a ``sigmas`` key or a named one; dimension ``dist_distribution``, with ``dist_sigma`` NaN for a
+    named one), with the small-argument power-law exponents fitted on the pooled samples."""
     from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
-    sigmas = sorted(set(exp.sigmas))
+    dists = exp.distributions
     rows = {k: [] for k in ("force_pdf", "extended_force_pdf", "gap_pdf", "force_exponent", "gap_exponent",
                             "n_forces", "n_gaps")}
-    for sigma in sigmas:
+    for dist in dists:
         forces, extended, gaps = [], [], []
         for run in exp.largest_runs():
-            if run.sigma != sigma:
+            if run.dist != dist.key:
                 continue
             c = read_group(exp.path(run, "calippso_packing"), "contacts")
             if c:
@@ -250,15 +251,25 @@ def collect_distributions(exp: Experiment) -> dict[str, tuple]:
         rows["gap_exponent"].append(_safe_exponent(gap_exponent, g))
         rows["n_forces"].append(len(f))
         rows["n_gaps"].append(len(g))
-    dims = {"force_pdf": ("dist_sigma", "force_bin"), "extended_force_pdf": ("dist_sigma", "force_bin"),
-            "gap_pdf": ("dist_sigma", "gap_bin")}
-    out = {k: (dims.get(k, ("dist_sigma",)), np.array(v, dtype=float)) for k, v in rows.items()}
+    dims = {"force_pdf": (POOLED, "force_bin"), "extended_force_pdf": (POOLED, "force_bin"),
+            "gap_pdf": (POOLED, "gap_bin")}
+    out = {k: (dims.get(k, (POOLED,)), np.array(v, dtype=float)) for k, v in rows.items()}
     out["_coords"] = {
-        "dist_sigma": ("dist_sigma", np.array(sigmas)),
+        POOLED: (POOLED, np.array([d.key for d in dists], dtype=str)),
+        "dist_sigma": (POOLED, np.array([d.sigma for d in dists], dtype=float)),
         "force_bin_centre": ("force_bin", np.sqrt(FORCE_BINS[1:] * FORCE_BINS[:-1])),
         "gap_bin_centre": ("gap_bin", np.sqrt(GAP_BINS[1:] * GAP_BINS[:-1])),
     }
     return out
+
+
+def pooled_by_distribution(ds):
+    """A dataset whose force and gap distributions were pooled per sigma (dimension ``dist_sigma``, before named
+    distributions were pooled too), with the ``dist_distribution`` dimension of today."""
+    if "dist_sigma" not in ds.dims:
+        return ds
+    keys = np.array([shorthand_key(float(s)) for s in ds["dist_sigma"].values], dtype=str)
+    return ds.assign_coords({POOLED: ("dist_sigma", keys)}).swap_dims({"dist_sigma": POOLED})
 
 
 def _safe_exponent(fit, values) -> float:
@@ -269,14 +280,15 @@ def _safe_exponent(fit, values) -> float:
 
 
 DISTRIBUTION_VARIABLES = {
-    "force_pdf": ("probability density of contact forces f/<f>, CALiPPSO packings pooled per sigma", "1"),
+    "force_pdf": ("probability density of contact forces f/<f>, CALiPPSO packings pooled per distribution", "1"),
     "extended_force_pdf": ("probability density of extended contact forces (no buckler contacts)", "1"),
     "gap_pdf": ("probability density of gaps h = r/D - 1 between non-contacting near neighbours", "1"),
     "force_exponent": ("small-force exponent theta_e of the pooled extended forces (mean field 0.42311)", "1"),
     "gap_exponent": ("small-gap exponent gamma_h of the pooled gaps, g(h) ~ h^-gamma_h (mean field 0.41269)", "1"),
     "n_forces": ("contact forces pooled", "1"),
     "n_gaps": ("gaps pooled", "1"),
-    "dist_sigma": ("sigma of the pooled distributions", "1"),
+    "dist_distribution": ("size distribution of the pooled packings (its key)", ""),
+    "dist_sigma": ("log-normal sigma of the pooled packings (NaN for a named distribution)", "1"),
     "force_bin_centre": ("geometric centre of the force bin, f/<f>", "1"),
     "gap_bin_centre": ("geometric centre of the gap bin, h", "1"),
 }
@@ -356,7 +368,7 @@ def build_dataset(manifest_path: str | os.PathLike):
             initial_rate=("grid_run", np.array([g.initial_rate for g in grid_runs])),
             final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
         )
-    if exp.config.get("calippso", {}).get("enabled", True) and exp.sigmas:  # pooled per sigma of the sigmas runs
+    if exp.config.get("calippso", {}).get("enabled", True):
         dist = collect_distributions(exp)
         coords.update(dist.pop("_coords"))
         data_vars.update(dist)
@@ -493,7 +505,7 @@ def open_dataset(path: str | os.PathLike):
     if "n" not in ds.variables and isinstance(single, (int, np.integer)):  # written before N was an axis: one N
         ds = ds.assign_coords(n=("packing", np.full(ds.sizes["packing"], int(single), dtype=np.int64)))
         ds["n"].attrs.update(long_name=COORDS["n"][0], units=COORDS["n"][1])
-    return with_distributions(ds)
+    return pooled_by_distribution(with_distributions(ds))
 
 
 def dataset_config(ds) -> dict[str, Any]:

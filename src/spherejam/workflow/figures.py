@@ -458,18 +458,20 @@ def forces(ds):
     ):
         pdf, centres = f"{var}_pdf", f"{var.removeprefix('extended_')}_bin_centre"
         if pdf in ds and centres in ds.coords:
-            for k, s in enumerate(ds.dist_sigma.values):
-                y = ds[pdf].sel(dist_sigma=s).values
+            labels = [f"σ = {s:g}" if np.isfinite(s) else str(key)
+                      for key, s in zip(ds.dist_distribution.values, ds.dist_sigma.values)]
+            if expo in ds:
+                labels = [f"{label}: {symbol} = {v:.2f}" for label, v in zip(labels, ds[expo].values)]
+                ax.set_title(f"fitted small-{var.split('_')[-1]} exponent {symbol} (mean field {mf})", fontsize=9)
+            for k, label in enumerate(labels):
+                y = ds[pdf].isel(dist_distribution=k).values
                 ok = np.isfinite(y) & (y > 0)
-                line, = ax.loglog(ds[centres].values[ok], y[ok], "o-", ms=3, label=f"σ = {s:g}")
+                line, = ax.loglog(ds[centres].values[ok], y[ok], "o-", ms=3, label=label)
                 if var == "extended_force" and "force_pdf" in ds:
-                    y_all = ds["force_pdf"].sel(dist_sigma=s).values
+                    y_all = ds["force_pdf"].isel(dist_distribution=k).values
                     ok = np.isfinite(y_all) & (y_all > 0)
                     ax.loglog(ds[centres].values[ok], y_all[ok], ":", color=line.get_color(),
                               label="all contacts" if k == 0 else None)
-            if expo in ds:
-                txt = ", ".join(f"{v:.2f}" for v in ds[expo].values)
-                ax.set_title(f"fitted {symbol} per σ: {txt} (mean field {mf})", fontsize=9)
             ax.legend(fontsize=8)
         else:
             _no_data(ax, f"{var} distribution not in dataset")
@@ -577,8 +579,9 @@ FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
            "structure": structure, "forces": forces, "scaling": scaling}
 
 
-#: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5 and the tables).
-PER_SIGMA = ("fig2", "fig4", "fig6", "fig7", "forces")
+#: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5, the tables and the force
+#: figure).
+PER_SIGMA = ("fig2", "fig4", "fig6", "fig7")
 
 
 def draw(name: str, ds):
