@@ -217,11 +217,14 @@ def report(label: str, start: Packing, cert: Certificate) -> None:
                   f"{start.dim * cert.phi / (p * (cert.phi - start.phi)):.3f} (spec: ~1 +- 30%)")
         else:  # the expected shift d phi / p is below the LP's resolution
             print(f"   start at p = {p:.3g}: expected phi_J - phi0 ~ d phi / p = {start.dim * start.phi / p:.1e}")
-    print("   per LP: sqrt(G)-1, max|s|, rows, CPU s, wall s, method")
+    print("   per LP: sqrt(G)-1, max|s|, rows (in the cutoff / solved / added by constraint generation), CPU s, "
+          "wall s, method")
+    solved = h.get("lp_rows", h["n_constraints"])  # a baseline before constraint generation has no such column
+    added = h.get("rows_added", np.zeros_like(solved))
     for k in range(cert.iterations):
         print(f"     {k + 1:3d} {h['sqrt_inflation_minus_1'][k]: .3e} {h['max_displacement'][k]:.3e} "
-              f"{h['n_constraints'][k]:7d} {h['cpu_time'][k]:7.2f} {h['solve_time'][k]:7.2f} "
-              f"{names[int(h['method'][k])]}")
+              f"{h['n_constraints'][k]:7d} {solved[k]:7d} {added[k]:4d} {h['cpu_time'][k]:7.2f} "
+              f"{h['solve_time'][k]:7.2f} {names[int(h['method'][k])]}")
     if cert.completed and cert.result is not None:
         d = distributions(cert.result)
         print(f"   gaps: gamma = {d['gap_gamma']:.3f} +- {d['gap_gamma_stderr']:.3f} from {int(d['gap_fit_n'])} gaps "
