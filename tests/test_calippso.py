@@ -229,6 +229,11 @@ def test_cli_calippso(tmp_path, capsys):
     jammed = read_packing(out)
     assert jammed.metadata["algorithm"] == "calippso"
     assert jammed.phi == pytest.approx(summary["phi"])
+    assert jammed.metadata["parameters"]["constraint_generation"] is False
+    out2 = tmp_path / "out2.h5"
+    assert main(["calippso", str(src), "-o", str(out2), "--json", "--constraint-generation"]) == 0
+    assert json.loads(capsys.readouterr().out)["is_isostatic"] == 1.0
+    assert read_packing(out2).metadata["parameters"]["constraint_generation"] is True
 
 
 def test_power_law_fit_recovers_exponent():
