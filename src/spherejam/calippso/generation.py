@@ -4,8 +4,9 @@ every other row of the cutoff at that solution, add the violated ones and re-sol
 
 A pair row can be violated only if the pair approaches by more than its gap to the inflated contact distance, and
 |s_i - s_j| <= 2 sqrt(d) s_bound: a row with r_ij > sigma_ij sqrt(Gamma_guess) + 2 sqrt(d) s_bound holds at every
-step with |s_{i,mu}| <= s_bound and sqrt(Gamma) <= sqrt(Gamma_guess). The LP over the other rows is a relaxation of the full one;
-its optimum, once it satisfies every row, is an optimum of the full LP, with zero duals on the rows left out.
+step with |s_{i,mu}| <= s_bound and sqrt(Gamma) <= sqrt(Gamma_guess). The LP over the other rows is a relaxation of
+the full one; its optimum, once it satisfies every row, is an optimum of the full LP, with zero duals on the rows
+left out.
 """
 
 from __future__ import annotations
