@@ -661,12 +661,17 @@ def test_rows_outside_the_near_set_hold_at_every_step_within_the_guess():
     assert np.max(row_excesses(rij[far], sigma2[far], i[far], j[far], s, 1.3**2)) > 0
 
 
-@pytest.mark.parametrize("starved", [False, True], ids=["dual-simplex-resolve", "forced-fallback"])
-def test_constraint_generation_adds_the_violated_rows_and_certifies(monkeypatch, ls_jammed_256, starved):
+@pytest.mark.parametrize("path, resolved_by", [
+    ({}, "warm"),
+    ({"solver_options": {"simplex_iteration_limit": 0}}, "ipm"),
+    ({"solver": "hipo", "warm_start": False, "active_set": False}, "warm"),
+], ids=["dual-simplex-resolve", "forced-fallback", "hipo-vertex-resolve"])
+def test_constraint_generation_adds_the_violated_rows_and_certifies(monkeypatch, ls_jammed_256, path, resolved_by):
     """Constraint generation forced to leave out rows that the LP does close (near set cut to 2 % of its reach): the
     first solve violates some of them, they are added and the LP re-solved (dual simplex from its basis; with the
-    simplex starved of pivots, the forced fallback to a cold solve), and the run reaches the certificate of the run
-    with every row: isostatic, balanced, no overlap, the same contacts, rattlers and phi."""
+    simplex starved of pivots, the forced fallback to a cold solve; on the path of N >= 4096, from the basis of a
+    certified HiPO vertex), and the run reaches the certificate of the run with every row: isostatic, balanced, no
+    overlap, the same contacts, rattlers and phi."""
     import spherejam.calippso.run as run_module
     from spherejam.calippso.constraints import row_excesses
 
@@ -679,12 +684,11 @@ def test_constraint_generation_adds_the_violated_rows_and_certifies(monkeypatch,
 
     def recorded(rij, sigma2, pi, pj, n, **kw):
         sol = solve(rij, sigma2, pi, pj, n, **kw)
-        calls.append((pi * n + pj, rij, sigma2, pi, pj, sol, kw["cuts"]))
+        calls.append((pi * n + pj, rij, sigma2, pi, pj, sol, kw.get("cuts", False)))  # the force LP: no cuts
         return sol
 
     monkeypatch.setattr(run_module, "solve_lp", recorded)
-    options = {"simplex_iteration_limit": 0} if starved else None
-    cg = run_calippso(ls_jammed_256, constraint_generation=True, solver_options=options)
+    cg = run_calippso(ls_jammed_256, constraint_generation=True, **path)
     resolves = [k for k in range(1, len(calls)) if calls[k][6]]
     assert resolves and np.any(cg.history["rows_added"] > 0)
     for k in resolves:
@@ -695,7 +699,7 @@ def test_constraint_generation_adds_the_violated_rows_and_certifies(monkeypatch,
         new = np.isin(calls[k][0], added)
         r_new, s2_new, i_new, j_new = (a[new] for a in calls[k][1:5])
         assert np.all(row_excesses(r_new, s2_new, i_new, j_new, sol.s, sol.inflation) > 0)
-        assert calls[k][5].method_name == ("warm" if not starved else "ipm")
+        assert calls[k][5].method_name == resolved_by
     assert np.all(cg.history["lp_rows"] < cg.history["n_constraints"])
     assert_jammed(cg, 3)
     assert {tuple(p) for p in cg.pairs.tolist()} == {tuple(p) for p in full.pairs.tolist()}
