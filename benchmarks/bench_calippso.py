@@ -11,12 +11,14 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][-warm][@max_lps]`` (``auto``: run_calippso's default; ``-warm``: no warm
-starts, the path of every N >= 4096): ``ipx+crossover`` is the old path (IPX interior point, HiGHS
-crossover), ``hipo`` the new path (HiPO interior point, its vertex certified by the active-set solve, crossover only
-as the fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is the reference: every other path
-must give the same contact network, the same rattlers and force balance <= 1e-10 (printed as "agree"). Times are
-CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and in total.
+A path is ``solver[:threads][+crossover][-warm][+cg][@max_lps]`` (``auto``: run_calippso's default; ``-warm``: no
+warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md §5.7, so that
+``--paths auto auto+cg`` times today's path and constraint generation side by side): ``ipx+crossover`` is the old
+path (IPX interior point, HiGHS crossover), ``hipo`` the new path (HiPO interior point, its vertex certified by the
+active-set solve, crossover only as the fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is
+the reference: every other path must give the same contact network, the same rattlers and force balance <= 1e-10
+(printed as "agree"). Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no
+figure), per LP and in total.
 ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times are then
 compared with the same LPs of the other paths, not its total).
 
@@ -95,10 +97,12 @@ METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "v
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][-warm][@max_lps]`` -> run_calippso keyword arguments (``-warm``: no warm
-    starts, as from N = 4096 on)."""
+    """``solver[:threads][+crossover][-warm][+cg][@max_lps]`` -> run_calippso keyword arguments (``-warm``: no warm
+    starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7)."""
     text, _, max_lps = text.partition("@")
     kw = {}
+    if text.endswith("+cg"):
+        text, kw["constraint_generation"] = text.removesuffix("+cg"), True
     if text.endswith("-warm"):
         text, kw["warm_start"] = text.removesuffix("-warm"), False
     crossover = True if text.endswith("+crossover") else None  # None: run_calippso's pairing for the solver
@@ -213,11 +217,14 @@ def report(label: str, start: Packing, cert: Certificate) -> None:
                   f"{start.dim * cert.phi / (p * (cert.phi - start.phi)):.3f} (spec: ~1 +- 30%)")
         else:  # the expected shift d phi / p is below the LP's resolution
             print(f"   start at p = {p:.3g}: expected phi_J - phi0 ~ d phi / p = {start.dim * start.phi / p:.1e}")
-    print("   per LP: sqrt(G)-1, max|s|, rows, CPU s, wall s, method")
+    print("   per LP: sqrt(G)-1, max|s|, rows (in the cutoff / solved / added by constraint generation), CPU s, "
+          "wall s, method")
+    solved = h.get("lp_rows", h["n_constraints"])  # a baseline before constraint generation has no such column
+    added = h.get("rows_added", np.zeros_like(solved))
     for k in range(cert.iterations):
         print(f"     {k + 1:3d} {h['sqrt_inflation_minus_1'][k]: .3e} {h['max_displacement'][k]:.3e} "
-              f"{h['n_constraints'][k]:7d} {h['cpu_time'][k]:7.2f} {h['solve_time'][k]:7.2f} "
-              f"{names[int(h['method'][k])]}")
+              f"{h['n_constraints'][k]:7d} {solved[k]:7d} {added[k]:4d} {h['cpu_time'][k]:7.2f} "
+              f"{h['solve_time'][k]:7.2f} {names[int(h['method'][k])]}")
     if cert.completed and cert.result is not None:
         d = distributions(cert.result)
         print(f"   gaps: gamma = {d['gap_gamma']:.3f} +- {d['gap_gamma_stderr']:.3f} from {int(d['gap_fit_n'])} gaps "

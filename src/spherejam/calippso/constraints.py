@@ -71,12 +71,12 @@ def constraint_rows(rij, sigma2, pi, pj, n):
 
 
 @njit(cache=True)
-def row_excess(rij, sigma2, pi, pj, s, inflation):
-    """Largest excess of a linearised row over its right-hand side at (s, Gamma), relative to the pair's
-    sigma_ij^2: <= 0 when all rows hold. Relative, because the step's overlap check is: an absolute excess e
-    overlaps a small pair by about e / (2 sigma_ij^2) (docs/calippso.md §5.5)."""
+def row_excesses(rij, sigma2, pi, pj, s, inflation):
+    """Excess of each linearised row over its right-hand side at (s, Gamma), relative to the pair's sigma_ij^2:
+    <= 0 where the row holds. Relative, because the step's overlap check is: an absolute excess e overlaps a small
+    pair by about e / (2 sigma_ij^2) (docs/calippso.md §5.5)."""
     m, dim = rij.shape
-    worst = -np.inf
+    out = np.empty(m)
     for k in range(m):
         i = pi[k]
         j = pj[k]
@@ -84,10 +84,13 @@ def row_excess(rij, sigma2, pi, pj, s, inflation):
         for a in range(dim):
             c = rij[k, a]
             lhs += 2.0 * c * (s[j, a] - s[i, a]) - c * c
-        lhs /= sigma2[k]
-        if lhs > worst:
-            worst = lhs
-    return worst
+        out[k] = lhs / sigma2[k]
+    return out
+
+
+def row_excess(rij, sigma2, pi, pj, s, inflation) -> float:
+    """The largest of :func:`row_excesses` (-inf without rows)."""
+    return float(np.max(row_excesses(rij, sigma2, pi, pj, s, inflation), initial=-np.inf))
 
 
 @njit(cache=True)

@@ -186,6 +186,10 @@ def _vertex_problem(rij, sigma2, pi, pj, s, inflation, duals, lower, upper, tole
 #: simplex, since that basis is nearly primal feasible (its rows barely moved), and no scaling, since the rows are
 #: O(1) already and scaling made warm solves slower (docs/calippso.md §5.3).
 SIMPLEX_FROM_BASIS = {"solver": "simplex", "simplex_strategy": 4, "simplex_scale_strategy": 0}
+#: HiGHS options of a re-solve after constraint generation added rows (docs/calippso.md §5.7): dual simplex, since the
+#: optimal basis of the LP without them stays dual feasible when they join it as basic rows, and only they are
+#: violated.
+SIMPLEX_AFTER_CUTS = {"solver": "simplex", "simplex_strategy": 1, "simplex_scale_strategy": 0}
 
 
 def _simplex_overrides(options: dict[str, Any] | None) -> dict[str, Any]:
@@ -204,7 +208,7 @@ def warm_pivot_limit(n: int) -> int:
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
-             crossover: bool = True) -> LPSolution:
+             crossover: bool = True, cuts: bool = False) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
@@ -215,8 +219,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     point is followed by HiGHS's crossover when ``crossover``; otherwise its near-active rows predict the vertex,
     which :func:`solve_active_set` certifies (method "vertex", docs/calippso.md §5.2); the fallback is primal
     simplex from the predicted vertex's basis (method "predicted", below N = :data:`PREDICTED_MAX_N`), then a second
-    interior point with crossover. On a non-optimal result the LP is solved once more with dual simplex (IPX after a
-    simplex cold solve) before giving up (docs/calippso.md §6).
+    interior point with crossover. With ``cuts``, ``warm`` is the optimal basis of this LP without some of its rows
+    (constraint generation, docs/calippso.md §5.7), re-optimised by dual simplex instead. On a non-optimal result
+    the LP is solved once more with dual simplex (IPX after a simplex cold solve) before giving up
+    (docs/calippso.md §6).
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
@@ -253,8 +259,8 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     if warm is not None and warm.cols.size == ncol and warm.keys.size:
         # beyond warm_pivot_limit(N) pivots interior point is cheaper: give up and fall back to it
         limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
-        attempts.insert(0, ("warm", {**opts, **SIMPLEX_FROM_BASIS, "simplex_iteration_limit": limit,
-                                     **_simplex_overrides(options)}))
+        attempts.insert(0, ("warm", {**opts, **(SIMPLEX_AFTER_CUTS if cuts else SIMPLEX_FROM_BASIS),
+                                     "simplex_iteration_limit": limit, **_simplex_overrides(options)}))
     failures = []
     predicted = None  # the basis an uncertified vertex predicts
     t0 = time.perf_counter()

@@ -33,6 +33,7 @@ from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set
 from .constraints import cutoff_rows, pair_keys
+from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .network import contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
@@ -72,7 +73,9 @@ class CalippsoResult:
         ``cutoff`` and ``s_bound`` (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`),
         ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``,
         ``contact_changes`` (contacts among non-rattlers gained or lost since the previous LP; -1 for the first),
-        ``bound_active`` (s components of non-rattlers at their bound).
+        ``bound_active`` (s components of non-rattlers at their bound), ``lp_rows`` (rows of the LP as solved:
+        fewer than ``n_constraints`` under constraint generation) and ``rows_added`` (rows constraint generation
+        added after the first solve, docs §5.7).
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, docs §3).
     forces : (K,) float array
@@ -225,6 +228,7 @@ def run_calippso(
     solver: str = "auto",
     threads: int = 1,
     crossover: bool | None = None,
+    constraint_generation: bool = False,
 ) -> CalippsoResult:
     """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
 
@@ -290,6 +294,10 @@ def run_calippso(
         Always run HiGHS's crossover after an interior point (False: certify the interior point's active set with
         :func:`~.active_set.solve_active_set` and cross over only when that fails; both give exact vertex duals;
         docs §5.2). None (the default): False for HiPO, True for IPX, the faster pairing of each.
+    constraint_generation : bool
+        Solve each HiGHS LP over the rows of the pairs that can close in it, then add the other rows that its
+        solution violates and re-solve (dual simplex from its basis) until none is (docs §5.7). The solution is
+        an optimum of the full LP either way; off (the default), every row of the cutoff is in the LP.
     """
     _validate(packing, max_iterations, inflation_tolerance, displacement_tolerance, s_bound, cutoff,
               initial_sqrt_inflation, zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval,
@@ -317,12 +325,13 @@ def run_calippso(
         "zero_force": zero_force, "solver_tolerance": solver_tolerance, "overlap_tolerance": overlap_tolerance,
         "fine_tune": bool(fine_tune), "active_set": bool(active_set), "warm_start": bool(warm_start),
         "solver": solver, "threads": int(threads), "crossover": bool(crossover),
-        "highs_version": highs_version(),
+        "constraint_generation": bool(constraint_generation), "highs_version": highs_version(),
     }
     cfg = _Settings(
         n=n, dim=dim, box=box, cutoff0=cutoff0, s_bound=s_bound, regime_thresholds=tuple(regime_thresholds),
         zero_force=zero_force, solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver,
         threads=int(threads), crossover=bool(crossover), active_set=bool(active_set),
+        constraint_generation=bool(constraint_generation),
         warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
     )
 
@@ -361,7 +370,8 @@ def run_calippso(
             cutoff=lp.ell / dia.max(), s_bound=lp.s_bound / dia.max(), regime=lp.regime,
             method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
             n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
-            contact_changes=changes, bound_active=at_bound,
+            contact_changes=changes, bound_active=at_bound, lp_rows=sol.rows if sol.rows >= 0 else len(lp.pi),
+            rows_added=sol.rows_added,
         )
         progress.update(
             f"it {iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
@@ -455,6 +465,7 @@ class _Settings:
     crossover: bool
     active_set: bool
     warm_start: bool
+    constraint_generation: bool
 
 
 @dataclass
@@ -469,6 +480,11 @@ class _LP:
     pj: np.ndarray
     rij: np.ndarray
     sigma2: np.ndarray
+
+    def subset(self, rows: np.ndarray) -> _LP:
+        """The same LP over the rows ``rows`` only."""
+        return _LP(self.ell, self.s_bound, self.inflation_max, self.regime, self.pi[rows], self.pj[rows],
+                   self.rij[rows], self.sigma2[rows])
 
 
 @dataclass
@@ -520,17 +536,43 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
             _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
                       iteration + 1, "; ".join(why))
     if sol is None:
-        warm = loop.basis if lp.regime > 1 and loop.warm_skip == 0 else None
-        loop.warm_skip = max(loop.warm_skip - 1, 0)
-        sol = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
+        sol = _solve_highs(lp, loop, cfg, tally, iteration)
+    return sol
+
+
+def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSolution:
+    """The HiGHS part of the solve: warm-started from the previous basis, with a back-off after failures (docs
+    §5.3); under constraint generation over the near rows first, re-solved by dual simplex from its own basis while
+    other rows are violated (docs §5.7)."""
+    warm = loop.basis if lp.regime > 1 and loop.warm_skip == 0 else None
+    loop.warm_skip = max(loop.warm_skip - 1, 0)
+    first: list[LPSolution] = []  # the first round's solution: its method tells whether the warm start worked
+
+    def highs(rows, previous: LPSolution | None) -> LPSolution:
+        sub = lp if rows is None else lp.subset(rows)
+        cuts = previous is not None and previous.basis is not None
+        sol = solve_lp(sub.rij, sub.sigma2, sub.pi, sub.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
                        inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
-                       options=cfg.solver_options, iteration=iteration, warm=warm, solver=cfg.solver,
-                       threads=cfg.threads, crossover=cfg.crossover)
-        loop.basis = sol.basis if cfg.warm_start else None
-        if warm is not None:  # after k failed warm starts in a row the next 2^k - 1 LPs skip it (docs §5.3)
-            tally.warm_attempts += 1
-            loop.warm_failures = 0 if sol.method == "warm" else loop.warm_failures + 1
-            loop.warm_skip = 2**loop.warm_failures - 1
+                       options=cfg.solver_options, iteration=iteration, warm=previous.basis if cuts else warm,
+                       solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts)
+        if previous is None:
+            first.append(sol)
+        return sol
+
+    near = None
+    if cfg.constraint_generation:
+        guess = min(1.0 + GAMMA_GUESS_FACTOR * (loop.sqrt_inflation_prev - 1.0), math.sqrt(lp.inflation_max))
+        near = near_rows(lp.rij, lp.sigma2, lp.s_bound, guess)
+    if near is None or near.all():
+        sol = highs(None, None)
+    else:
+        sol, rows, added = solve_generated(lp.rij, lp.sigma2, lp.pi, lp.pj, near, highs)
+        sol.rows, sol.rows_added = rows, added
+    loop.basis = sol.basis if cfg.warm_start else None
+    if warm is not None:  # after k failed warm starts in a row the next 2^k - 1 LPs skip it (docs §5.3)
+        tally.warm_attempts += 1
+        loop.warm_failures = 0 if first[0].method == "warm" else loop.warm_failures + 1
+        loop.warm_skip = 2**loop.warm_failures - 1
     return sol
 
 

@@ -44,6 +44,8 @@ class LPSolution:
     basis: LPBasis | None = None
     solver: str = "none"  # the HiGHS solver behind it (SOLVER_CODES)
     failed: str = ""  # the attempts that failed before this one (e.g. an uncertified vertex before crossover)
+    rows: int = -1  # rows of the LP as solved (-1: every row given; fewer under constraint generation)
+    rows_added: int = 0  # rows that constraint generation added after the first solve
 
     @property
     def method_name(self) -> str:

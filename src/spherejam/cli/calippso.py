@@ -34,6 +34,9 @@ def register(sub) -> None:
     p.add_argument("--crossover", action=argparse.BooleanOptionalAction, default=None,
                    help="cross over after every interior point, or certify its active set and cross over only "
                         "when that fails (default: certify with hipo, cross over with ipx)")
+    p.add_argument("--constraint-generation", action="store_true",
+                   help="solve each HiGHS LP over the rows that can close first, then add the violated others "
+                        "(docs/calippso.md 5.7); the certificate is the same")
     p.add_argument("--checkpoint", type=output_file, default=None, help="checkpoint file (resume if it exists)")
     add_stale_checkpoint_option(p)
     p.add_argument("--require-convergence", action="store_true",
@@ -58,7 +61,7 @@ def _calippso(args) -> int:
         packing, max_iterations=args.max_iterations, inflation_tolerance=args.inflation_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
-        crossover=args.crossover,
+        crossover=args.crossover, constraint_generation=args.constraint_generation,
     ))
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.completed:
