@@ -39,3 +39,10 @@ def test_version_without_installed_metadata(monkeypatch):
 def test_flat_paths_of_0_1_are_gone():
     with pytest.raises(ModuleNotFoundError):
         __import__("spherejam.lubachevsky_stillinger")
+
+
+def test_cli_version_is_the_package_version(capsys):
+    from spherejam.cli import main
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"spherejam {_pyproject_version()}"
