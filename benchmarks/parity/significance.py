@@ -49,12 +49,8 @@ def censored_phi_sign_test(pairs: list[tuple[dict, dict]]) -> str:
         else:
             undecided += 1
     n = lower + higher
-    text = f"ours lower in {lower}, higher in {higher} of {n} decided pairs ({undecided} undecided)"
-    if n < MIN_PAIRS_FOR_TEST:
-        return text + f"; sign test not estimable (n = {n})"
-    from scipy import stats
-
-    return text + f"; sign test p = {stats.binomtest(lower, n).pvalue:.3g}"
+    return _with_sign_test(f"ours lower in {lower}, higher in {higher} of {n} decided pairs ({undecided} undecided)",
+                           lower, n)
 
 
 def censored_sign_test(pairs: list[tuple[dict, dict]]) -> str:
@@ -74,12 +70,17 @@ def censored_sign_test(pairs: list[tuple[dict, dict]]) -> str:
         else:
             undecided += 1
     n = fewer + more
-    text = f"ours needed fewer collisions in {fewer} of {n} decided pairs ({undecided} undecided)"
+    return _with_sign_test(f"ours needed fewer collisions in {fewer} of {n} decided pairs ({undecided} undecided)",
+                           fewer, n)
+
+
+def _with_sign_test(text: str, successes: int, n: int) -> str:
+    """``text`` and the two-sided sign test of ``successes`` of ``n`` decided pairs."""
     if n < MIN_PAIRS_FOR_TEST:
         return text + f"; sign test not estimable (n = {n})"
     from scipy import stats
 
-    return text + f"; sign test p = {stats.binomtest(fewer, n).pvalue:.3g}"
+    return text + f"; sign test p = {stats.binomtest(successes, n).pvalue:.3g}"
 
 
 def fisher_line(rows: dict[str, list]) -> str:
