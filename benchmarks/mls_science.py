@@ -4,7 +4,7 @@ For each seed: Poisson packing -> LS at a fast rate (1/gamma < 5) -> MLS with th
 also LS at a slow rate (1/gamma >= 100) -> MLS. Prints, per packing, phi after LS, phi_J, the MLS stages, collisions,
 wall time, the coordination number Z of the non-rattlers (contacts: gap tolerance chosen from the pressure by
 :func:`spherejam.analysis.contacts.analyze_contacts`, and the reference code's fixed 1e-7) and the crystalline fraction
-(:func:`spherejam.analysis.structure.crystalline_fraction`: monodisperse searches can nucleate crystals, paper
+(:func:`spherejam.analysis.bond_order.crystalline_fraction`: monodisperse searches can nucleate crystals, paper
 §IV.A), then a
 summary against the paper's band of its sigma (Table 3, :mod:`spherejam.workflow.paper_reference`; sigma = 0: phi_J in
 [0.6356, 0.6406] for fast packings of N = 1e4, the minimum being the one surviving phi_min row, LS or FB).
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from spherejam.analysis.contacts import analyze_contacts
-from spherejam.analysis.structure import crystalline_fraction
+from spherejam.analysis.bond_order import crystalline_fraction
 from spherejam.core.packing_io import write_packing
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming

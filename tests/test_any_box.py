@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from spherejam.analysis.contacts import analyze_contacts, near_pairs
-from spherejam.analysis.structure import voronoi_volumes
+from spherejam.analysis.voronoi import voronoi_volumes
 from spherejam.core.neighbours import pair_images
 from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing

@@ -1,10 +1,11 @@
-"""The pure helpers of ``benchmarks/mls_parity.py``: the C++ input it writes, the log it parses, and how it cuts a
-search's history into MLS stages and decides why the search stopped."""
+"""``benchmarks/mls_parity.py`` and its parts (``benchmarks/parity/``): the C++ input it writes, the log it parses,
+how it cuts a search's history into MLS stages and decides why the search stopped, its tests, its locks."""
 
-import importlib.util
+import importlib
 import json
 import math
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,15 +14,21 @@ import pytest
 from spherejam.core.seeding import poisson_packing
 from spherejam.formats import packing_generation as pg
 
-_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "mls_parity.py"
-_spec = importlib.util.spec_from_file_location("mls_parity", _PATH)
-mp = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(mp)
+# the script imports its parts as the package `parity` from its own folder, as when it is run
+_BENCHMARKS = str(Path(__file__).resolve().parents[1] / "benchmarks")
+if _BENCHMARKS not in sys.path:
+    sys.path.insert(0, _BENCHMARKS)
+mp = importlib.import_module("mls_parity")
+cpp = importlib.import_module("parity.cpp")
+ours = importlib.import_module("parity.ours")
+stages = importlib.import_module("parity.stages")
+significance = importlib.import_module("parity.significance")
+locks = importlib.import_module("parity.locks")
 
 
 def test_cpp_input_has_our_nominal_diameters_and_the_mls_rates(tmp_path):
     start = poisson_packing(40, 0.3, seed=3)
-    phi_nominal = mp.write_cpp_input(start, tmp_path, seed=7, initial_rate=1e-2, factor=2.0, final_rate=1e-4)
+    phi_nominal = cpp.write_cpp_input(start, tmp_path, seed=7, initial_rate=1e-2, factor=2.0, final_rate=1e-4)
     assert not (tmp_path / pg.NFO).exists()  # the code skips a folder that holds a packing.nfo
     data = np.fromfile(tmp_path / pg.XYZD, dtype="<f8").reshape(-1, 4)
     np.testing.assert_array_equal(data[:, :3], start.positions)
@@ -51,12 +58,12 @@ def test_parse_cpp_log_reads_only_parity_lines():
             "PARITY collisions 8601 rate 0.01 ratio 1.0005 pressure 94.7 time 0.19 cpu 0.1\n"
             "Suppress growth\n"
             "PARITY collisions 8700 rate 0 ratio 1.0005 pressure 9.9e11 time 1e-11 cpu 0.2\n")
-    cols = mp.parse_cpp_log(text, phi_nominal=0.6)
+    cols = cpp.parse_cpp_log(text, phi_nominal=0.6)
     assert cols["collisions"] == [8601, 8700]
     assert cols["rate"] == [0.01, 0.0]
     assert cols["pressure"] == [94.7, 9.9e11]
     assert cols["phi"] == pytest.approx([0.6 * 1.0005**3] * 2, rel=1e-15)
-    assert mp.parse_cpp_log("Time: 1, reduced pressure: 2\n", 0.6)["phi"] == []
+    assert cpp.parse_cpp_log("Time: 1, reduced pressure: 2\n", 0.6)["phi"] == []
 
 
 def _history(rates, pressures):
@@ -67,10 +74,10 @@ def test_stages_and_unjamming():
     p = 1e12
     h = _history([1e-2, 1e-2, 0, 5e-3, 5e-3, 5e-3, 0, 2.5e-3],
                  [1e3, 2 * p, 0.9 * p, 1e4, 1e8, 2 * p, 0.5 * p, 2 * p])
-    st = mp.stages(h)
+    st = stages.stages(h)
     assert [(s["rate"], s["windows"]) for s in st] == [(1e-2, 2), (0, 1), (5e-3, 3), (0, 1), (2.5e-3, 1)]
     assert st[2]["p_min"] == 1e4 and st[2]["p_end"] == 2 * p
-    f = mp.stage_figures({"history": h})
+    f = stages.stage_figures({"history": h})
     assert f["compression_windows"] == [2, 3, 1]
     assert f["equilibration_windows"] == [1, 1]
     # the first compression (from the start packing) is not a re-compression; of the two others one unjams
@@ -79,22 +86,22 @@ def test_stages_and_unjamming():
 
 def test_stop_reason_and_cap():
     p = 1e12
-    assert mp.stop_reason([1e-2, 0, 7.8125e-5], [2 * p, 0.5 * p, 2 * p], 1e-4) == "final_rate"
-    assert mp.stop_reason([7.8125e-5], [0.5 * p], 1e-4) == "final_rate_stalled"
-    assert mp.stop_reason([1e-2] + [0] * 50, [2 * p] * 51, 1e-4) == "jammed"
-    assert mp.stop_reason([1e-2] + [0] * 49, [2 * p] * 50, 1e-4) == "unfinished"
+    assert ours.stop_reason([1e-2, 0, 7.8125e-5], [2 * p, 0.5 * p, 2 * p], 1e-4) == "final_rate"
+    assert ours.stop_reason([7.8125e-5], [0.5 * p], 1e-4) == "final_rate_stalled"
+    assert ours.stop_reason([1e-2] + [0] * 50, [2 * p] * 51, 1e-4) == "jammed"
+    assert ours.stop_reason([1e-2] + [0] * 49, [2 * p] * 50, 1e-4) == "unfinished"
     # at the cap: a search that met a rule keeps it, any other is capped and has no phi_J
-    done = mp.classify({"collisions": 100, "stop": "final_rate", "phi_J": 0.63}, max_collisions=100)
+    done = ours.classify({"collisions": 100, "stop": "final_rate", "phi_J": 0.63}, max_collisions=100)
     assert not done["capped"] and done["phi_J"] == 0.63
-    cut = mp.classify({"collisions": 101, "stop": "final_rate_stalled", "phi_J": 0.63}, max_collisions=100)
+    cut = ours.classify({"collisions": 101, "stop": "final_rate_stalled", "phi_J": 0.63}, max_collisions=100)
     assert cut["capped"] and cut["stop"] == "capped" and cut["phi_J"] is None
 
 
 def test_tests_need_enough_pairs():
-    assert mp.tests([0.63] * 3, [0.64] * 3).startswith("not estimable (n = 3")
+    assert significance.tests([0.63] * 3, [0.64] * 3).startswith("not estimable (n = 3")
     rng = np.random.default_rng(0)
     a = list(0.63 + 0.002 * rng.standard_normal(12))
-    line = mp.tests(a, [x + 0.01 for x in a])  # a clear shift: both tests must see it
+    line = significance.tests(a, [x + 0.01 for x in a])  # a clear shift: both tests must see it
     p_values = [float(part.split("p = ")[1].split()[0].rstrip(";")) for part in line.split("; ")[1:]]
     assert all(pv < 0.01 for pv in p_values) and math.isfinite(p_values[0])
 
@@ -109,9 +116,11 @@ def test_censored_comparisons_use_the_cap_as_a_bound():
         (run(0.640, False, 50), run(None, True, 40, 0.635)),    # C++ capped below ours: undecided
         (run(None, True, 90, 0.632), run(0.631, False, 30)),    # ours capped above the C++ phi_J: ours higher
     ]
-    assert mp.censored_phi_sign_test(pairs).startswith("ours lower in 2, higher in 1 of 3 decided pairs (1 undecided)")
+    assert significance.censored_phi_sign_test(pairs).startswith(
+        "ours lower in 2, higher in 1 of 3 decided pairs (1 undecided)")
     # cost: pair 2 and 3 are undecided (the capped C++ stopped below our count), pair 4 ours costlier
-    assert mp.censored_sign_test(pairs).startswith("ours needed fewer collisions in 1 of 2 decided pairs (2 undecided)")
+    assert significance.censored_sign_test(pairs).startswith(
+        "ours needed fewer collisions in 1 of 2 decided pairs (2 undecided)")
 
 
 def test_a_given_start_is_used_for_every_pair(tmp_path):
@@ -133,8 +142,8 @@ def test_a_given_start_is_used_for_every_pair(tmp_path):
 def test_a_pair_is_claimed_by_one_live_worker(tmp_path):
     """Two workers on overlapping seeds once corrupted a C++ log; the lock file lets only one of them run a search."""
     lock = tmp_path / "pair-0001" / "cpp.lock"
-    assert mp.claim(lock)
-    assert not mp.claim(lock)  # held by a live process (this one)
+    assert locks.claim(lock)
+    assert not locks.claim(lock)  # held by a live process (this one)
     lock.write_text("999999999")  # a worker that died
-    assert mp.claim(lock)
+    assert locks.claim(lock)
     assert lock.read_text() == str(os.getpid())

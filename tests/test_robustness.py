@@ -356,7 +356,7 @@ def test_a_seed_beyond_the_box_limit_is_refused_in_one_line(tmp_path):
 
 def test_analyze_after_a_tiny_nominal_density(tmp_path):
     """seed --phi-nominal 1e-60 makes a box of 3e20; the Voronoi tessellation works in box units."""
-    from spherejam.analysis.structure import voronoi_volumes
+    from spherejam.analysis.voronoi import voronoi_volumes
 
     p = poisson_packing(60, 0.1, 4, phi_nominal=1e-60)
     assert p.box > 1e19

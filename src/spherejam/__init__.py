@@ -8,12 +8,10 @@ The layout follows the pipeline (docs/layout.md): ``core`` (the packing, its fil
 importable from here: ``from spherejam import poisson_packing, run_ls, find_closest_jamming``.
 """
 
-__version__ = "0.1.0"
+from .core.errors import InputError, OverlapError, PackingFileError, SimulationError, SpherejamError
+from .core.provenance import spherejam_version
 
-import sys  # noqa: E402
-
-from . import _moved  # noqa: E402
-from .core.errors import InputError, OverlapError, PackingFileError, SimulationError, SpherejamError  # noqa: E402
+__version__ = spherejam_version()
 
 #: name -> module of the public functions and classes, imported on first use: the engines pull in numba, and
 #: `import spherejam` (and Snakemake's DAG) stays light.
@@ -34,9 +32,6 @@ __all__ = [
     "__version__", "find_closest_jamming", "poisson_packing", "read_packing", "run_calippso", "run_fb", "run_ls",
     "write_packing",
 ]
-
-if _moved.FINDER not in sys.meta_path:
-    sys.meta_path.append(_moved.FINDER)
 
 
 def __getattr__(name):

@@ -18,10 +18,10 @@ import logging
 import os
 import sys
 
-from .. import __version__
 from ..core import interrupt
 from ..core.errors import InputError, PackingFileError, SpherejamError
 from ..core.progress import live_status
+from ..core.provenance import spherejam_version
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
 COMMAND_MODULES = ("packing_commands", "psd", "rcp", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls",
@@ -44,7 +44,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="spherejam", description=__doc__.splitlines()[0])
-    parser.add_argument("--version", action="version", version=f"spherejam {__version__}")
+    parser.add_argument("--version", action="version", version=f"spherejam {spherejam_version()}")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True

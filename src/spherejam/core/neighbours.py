@@ -24,7 +24,7 @@ Pair search
 
 All kernels are numba ``njit(cache=True)`` functions over plain arrays; the small geometry helpers are inlined into
 the engines' kernels. Numba keys a cached kernel on its own source file only: after editing this module, clear the
-numba cache, or the kernels that inline it (engines/kernels, analysis/structure) keep the old code.
+numba cache, or the kernels that inline it (engines/kernels, analysis/pore_size) keep the old code.
 """
 
 from __future__ import annotations

@@ -8,11 +8,25 @@ import importlib.metadata
 import os
 import platform
 import subprocess
+import tomllib
 from pathlib import Path
 
-from .. import __version__
-
 _PACKAGES = ("numpy", "numba", "scipy", "h5py", "xarray", "pandas", "highspy", "freud-analysis", "snakemake")
+
+
+@functools.cache
+def spherejam_version() -> str:
+    """The installed distribution's version (pyproject.toml is its one source), or, for a source tree on the path
+    without an install, the version in that tree's pyproject.toml; ``"0+unknown"`` if neither exists."""
+    try:
+        return importlib.metadata.version("spherejam")
+    except importlib.metadata.PackageNotFoundError:
+        pass
+    try:
+        with open(Path(__file__).resolve().parents[3] / "pyproject.toml", "rb") as f:
+            return str(tomllib.load(f)["project"]["version"])
+    except (OSError, KeyError, tomllib.TOMLDecodeError):
+        return "0+unknown"
 
 
 @functools.cache
@@ -40,7 +54,7 @@ def git_commit() -> str:
 
 @functools.cache
 def package_versions() -> dict[str, str]:
-    versions = {"python": platform.python_version(), "spherejam": __version__}
+    versions = {"python": platform.python_version(), "spherejam": spherejam_version()}
     for name in _PACKAGES:
         try:
             versions[name] = importlib.metadata.version(name)
@@ -56,7 +70,7 @@ def now_utc() -> str:
 def provenance() -> dict[str, object]:
     """A JSON-serialisable record of what produced an output, and when."""
     return {
-        "spherejam_version": __version__,
+        "spherejam_version": spherejam_version(),
         "git_commit": git_commit(),
         "created": now_utc(),
         "package_versions": package_versions(),
