@@ -4,7 +4,7 @@ This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherej
 protocol itself (windows, pressure, thermostat, stopping, checkpoints) lives there. All functions are numba
 ``njit(cache=True)`` kernels over plain arrays.
 
-State (structure of arrays, one cache line per particle)
+State (one :class:`EventState`; particles as a structure of arrays, one cache line per particle)
     ``st[i] = (x, y, z, vx, vy, vz, t_i, D_i)``: position at the particle's own last-update time ``t_i``
     (positions are advanced lazily, x(t) = x_i + v_i (t - t_i)), velocity, and nominal diameter D_i (mean 1).
     Actual diameters are rho(t) D_i with rho(t) = rho0 + gamma t (gamma = d rho/dt, the paper's compression rate).
@@ -35,6 +35,8 @@ Speed (the hot loop is a prediction over ~10 neighbours)
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
@@ -43,6 +45,64 @@ from numba.extending import intrinsic
 
 from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
                                 unravel_cell)
+
+class EventState(NamedTuple):
+    """The whole state of the event-driven engine, one object (numba types a NamedTuple of arrays and scalars).
+
+    The kernels write into its arrays in place and only read its scalars; the caller replaces the tuple
+    (``_replace``) when a scalar changes or a full rebuild reallocates an array. Checkpoints save it whole
+    (:meth:`persistent`), minus the :data:`WORKSPACE` that every window recomputes (docs/algorithms.md §7.3).
+    """
+
+    st: np.ndarray  #: (N, 8) float64 rows (x, y, z, vx, vy, vz, t_i, D_i), 64-byte aligned
+    perm: np.ndarray  #: (N,) int64 row -> input particle index (rows are renumbered in cell order)
+    refs: np.ndarray  #: (N, 3) reference centres of the Verlet lists
+    nbr: np.ndarray  #: (N, cap) int32 neighbour lists, 64-byte aligned
+    nnb: np.ndarray  #: (N,) int32 list lengths
+    head: np.ndarray  #: linked cells of the reference centres (core.neighbours.link_cells)
+    nxt: np.ndarray
+    prv: np.ndarray
+    cellof: np.ndarray
+    ev_time: np.ndarray  #: (N,) each particle's scheduled event
+    ev_type: np.ndarray  #: (N,) int8 MOVE, COLLISION or SKIN
+    ev_partner: np.ndarray  #: (N,) int32 collision partner or -1
+    heap: np.ndarray  #: (N,) int32 indexed 4-ary min-heap of particles by event time
+    hpos: np.ndarray  #: (N,) int32 heap position of each particle
+    hkey: np.ndarray  #: (N,) event times in heap order
+    scratch: np.ndarray  #: (1, >= cap) int32 work row of a local list update
+    box: float  #: side L of the periodic cube
+    m: int  #: cells per side
+    rho0: float  #: diameter scale factor at t = 0 of the current window
+    gamma: float  #: compression rate d rho / dt
+    rho_list: float  #: scale factor up to which the lists are exact
+    skin: float  #: Verlet skin
+    multi: bool  #: pairs may meet through several periodic images
+    list_rebuilds: int  #: full rebuilds so far
+
+    def persistent(self) -> tuple[dict[str, np.ndarray], dict[str, float | int | bool]]:
+        """``(arrays, scalars)``: every field but the :data:`WORKSPACE`, for a checkpoint."""
+        arrays, scalars = {}, {}
+        for name, value in self._asdict().items():
+            if name not in WORKSPACE:
+                (arrays if isinstance(value, np.ndarray) else scalars)[name] = value
+        return arrays, scalars
+
+
+#: Fields whose contents are dead between windows: a window predicts every event afresh (:func:`init_events`) and
+#: the scratch row holds nothing across calls. A restored state gets them from :func:`workspace`.
+WORKSPACE = ("ev_time", "ev_type", "ev_partner", "heap", "hpos", "hkey", "scratch")
+
+
+def workspace(n: int, cap: int) -> dict[str, np.ndarray]:
+    """Fresh :data:`WORKSPACE` arrays for N particles and neighbour lists of width ``cap``."""
+    return {"ev_time": np.zeros(n), "ev_type": np.zeros(n, dtype=np.int8),
+            "ev_partner": np.full(n, -1, dtype=np.int32), "heap": np.zeros(n, dtype=np.int32),
+            "hpos": np.zeros(n, dtype=np.int32), "hkey": np.zeros(n), "scratch": scratch_row(cap)}
+
+
+def scratch_row(cap: int) -> np.ndarray:
+    return np.zeros((1, max(cap, 64)), dtype=np.int32)
+
 
 MOVE = 0
 COLLISION = 1
@@ -425,11 +485,12 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 
 @njit(cache=True, inline="always")
-def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
-                    ev_time, nbr, nnb, box, gamma, skin, rho_list):
+def _predict_images(s, i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j):
     """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
     within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
     within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
+    st, ev_time, nbr, nnb = s.st, s.ev_time, s.nbr, s.nnb
+    box, gamma, skin, rho_list = s.box, s.gamma, s.skin, s.rho_list
     half = 0.5 * box
     di = st[i, 7]
     for kk in range(nnb[i]):
@@ -450,15 +511,17 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
 
 
 @njit(cache=True, inline="always")
-def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
-             rho0, gamma, skin, rho_list, multi, update_heap):
-    """Schedule particle i's next event at time t (its own current event is released first).
+def _predict(s, i, exclude, exclude_image, t, update_heap):
+    """Schedule particle i's next event at time t in state ``s`` (its own current event is released first).
 
     ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
     some 100 words of array descriptors per prediction.
     """
+    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
+    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
+    box, gamma, skin, multi = s.box, s.gamma, s.skin, s.multi
     n = st.shape[0]
     half = 0.5 * box
     # release: a partner that expected to collide with i falls back to a re-prediction at the same time
@@ -475,16 +538,15 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     vyi = st[i, 4]
     vzi = st[i, 5]
     di = st[i, 7]
-    rho = rho0 + gamma * t
+    rho = s.rho0 + gamma * t
     best = skin_exit_delay(xi - refs[i, 0], yi - refs[i, 1], zi - refs[i, 2], vxi, vyi, vzi, 0.5 * skin) + t
     best_type = SKIN
     best_j = -1
     for kk in range(nnb[i]):
         _prefetch_row(st, nbr[i, kk])
     if multi:  # outside the loop: the single-image loop below stays as tight as it was
-        best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
-                                                  best_type, best_j, st, ev_time, nbr, nnb, box, gamma, skin,
-                                                  rho_list)
+        best, best_type, best_j = _predict_images(s, i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho,
+                                                  best, best_type, best_j)
     for kk in range(0 if multi else nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -533,29 +595,29 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
 
 
 @njit(cache=True)
-def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
-                rho_list, multi):
-    """Predict every particle's event from scratch (all synchronised at t) and build the heap."""
-    n = st.shape[0]
+def init_events(s, t):
+    """Predict every particle's event in state ``s`` from scratch (all synchronised at t) and build the heap."""
+    n = s.st.shape[0]
     for i in range(n):
-        ev_time[i] = t
-        ev_type[i] = MOVE
-        ev_partner[i] = -1
+        s.ev_time[i] = t
+        s.ev_type[i] = MOVE
+        s.ev_partner[i] = -1
     for i in range(n):
-        _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                 nbr, nnb, box, rho0, gamma, skin, rho_list, multi, False)
-    heap_build(heap, hpos, hkey, ev_time, n)
+        _predict(s, i, -1, -1, t, False)
+    heap_build(s.heap, s.hpos, s.hkey, s.ev_time, n)
 
 
 @njit(cache=True)
-def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-               nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
-               rho0, gamma, rho_list, skin, multi, t, target, count_collisions, t_horizon, counters, acc):
-    """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
+def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
+    """Process the events of state ``s`` from time t until ``target`` events (or collisions) are counted in
+    ``counters``.
 
     ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
     Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
     """
+    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
+    ev_type, ev_partner, heap, hkey = s.ev_type, s.ev_partner, s.heap, s.hkey
+    box, m, rho0, gamma, rho_list, skin, multi = s.box, s.m, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
     half = 0.5 * box
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
@@ -571,12 +633,11 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
         kind = ev_type[i]
         if kind == SKIN:
             _sync(st, i, te)
-            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
-                                coords, shift, cells):
+            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, s.head, s.nxt, s.prv, s.cellof,
+                                s.scratch, coords, shift, cells):
                 return OVERFLOW, t
             t = te
-            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+            _predict(s, i, -1, -1, t, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -619,14 +680,11 @@ def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
-            _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+            _predict(s, i, j, image, t, True)
+            _predict(s, j, i, 26 - image, t, True)
         else:
             t = te
-            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+            _predict(s, i, -1, -1, t, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
