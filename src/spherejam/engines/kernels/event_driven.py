@@ -485,12 +485,11 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 
 @njit(cache=True, inline="always")
-def _predict_images(s, i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j):
+def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
+                    ev_time, nbr, nnb, box, gamma, skin, rho_list):
     """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
     within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
     within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
-    st, ev_time, nbr, nnb = s.st, s.ev_time, s.nbr, s.nnb
-    box, gamma, skin, rho_list = s.box, s.gamma, s.skin, s.rho_list
     half = 0.5 * box
     di = st[i, 7]
     for kk in range(nnb[i]):
@@ -511,17 +510,18 @@ def _predict_images(s, i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, 
 
 
 @njit(cache=True, inline="always")
-def _predict(s, i, exclude, exclude_image, t, update_heap):
-    """Schedule particle i's next event at time t in state ``s`` (its own current event is released first).
+def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
+             rho0, gamma, skin, rho_list, multi, update_heap):
+    """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
+    are :class:`EventState`'s fields.
 
     ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
-    some 100 words of array descriptors per prediction.
+    some 100 words of array descriptors per prediction. Its callers unpack the state once, outside their loops: each
+    field read from the tuple takes a reference to its array (an atomic increment and decrement), which inside the
+    event loop cost 60 % of the speed (docs/algorithms.md §7.3).
     """
-    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
-    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
-    box, gamma, skin, multi = s.box, s.gamma, s.skin, s.multi
     n = st.shape[0]
     half = 0.5 * box
     # release: a partner that expected to collide with i falls back to a re-prediction at the same time
@@ -538,15 +538,16 @@ def _predict(s, i, exclude, exclude_image, t, update_heap):
     vyi = st[i, 4]
     vzi = st[i, 5]
     di = st[i, 7]
-    rho = s.rho0 + gamma * t
+    rho = rho0 + gamma * t
     best = skin_exit_delay(xi - refs[i, 0], yi - refs[i, 1], zi - refs[i, 2], vxi, vyi, vzi, 0.5 * skin) + t
     best_type = SKIN
     best_j = -1
     for kk in range(nnb[i]):
         _prefetch_row(st, nbr[i, kk])
     if multi:  # outside the loop: the single-image loop below stays as tight as it was
-        best, best_type, best_j = _predict_images(s, i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho,
-                                                  best, best_type, best_j)
+        best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
+                                                  best_type, best_j, st, ev_time, nbr, nnb, box, gamma, skin,
+                                                  rho_list)
     for kk in range(0 if multi else nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -597,14 +598,18 @@ def _predict(s, i, exclude, exclude_image, t, update_heap):
 @njit(cache=True)
 def init_events(s, t):
     """Predict every particle's event in state ``s`` from scratch (all synchronised at t) and build the heap."""
-    n = s.st.shape[0]
+    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
+    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
+    box, rho0, gamma, skin, rho_list, multi = s.box, s.rho0, s.gamma, s.skin, s.rho_list, s.multi
+    n = st.shape[0]
     for i in range(n):
-        s.ev_time[i] = t
-        s.ev_type[i] = MOVE
-        s.ev_partner[i] = -1
+        ev_time[i] = t
+        ev_type[i] = MOVE
+        ev_partner[i] = -1
     for i in range(n):
-        _predict(s, i, -1, -1, t, False)
-    heap_build(s.heap, s.hpos, s.hkey, s.ev_time, n)
+        _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                 nbr, nnb, box, rho0, gamma, skin, rho_list, multi, False)
+    heap_build(heap, hpos, hkey, ev_time, n)
 
 
 @njit(cache=True)
@@ -615,9 +620,11 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
     Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
     """
-    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
-    ev_type, ev_partner, heap, hkey = s.ev_type, s.ev_partner, s.heap, s.hkey
-    box, m, rho0, gamma, rho_list, skin, multi = s.box, s.m, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
+    # every field unpacked once, outside the loop (see _predict)
+    st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
+    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
+    scratch, box, m, rho0, gamma, rho_list, skin, multi = s.scratch, s.box, s.m, s.rho0, s.gamma, s.rho_list, \
+        s.skin, s.multi
     half = 0.5 * box
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
@@ -633,11 +640,12 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
         kind = ev_type[i]
         if kind == SKIN:
             _sync(st, i, te)
-            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, s.head, s.nxt, s.prv, s.cellof,
-                                s.scratch, coords, shift, cells):
+            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
+                                coords, shift, cells):
                 return OVERFLOW, t
             t = te
-            _predict(s, i, -1, -1, t, True)
+            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -680,11 +688,14 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _predict(s, i, j, image, t, True)
-            _predict(s, j, i, 26 - image, t, True)
+            _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+            _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
         else:
             t = te
-            _predict(s, i, -1, -1, t, True)
+            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
