@@ -46,6 +46,7 @@ from numba.extending import intrinsic
 from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
                                 unravel_cell)
 
+
 class EventState(NamedTuple):
     """The whole state of the event-driven engine, one object (numba types a NamedTuple of arrays and scalars).
 
@@ -519,8 +520,8 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
     some 100 words of array descriptors per prediction. Its callers unpack the state once, outside their loops: each
-    field read from the tuple takes a reference to its array (an atomic increment and decrement), which inside the
-    event loop cost 60 % of the speed (docs/algorithms.md §7.3).
+    field read from the tuple takes a reference to its array (an atomic increment and decrement), too slow for the
+    event loop (docs/algorithms.md §7.3).
     """
     n = st.shape[0]
     half = 0.5 * box
