@@ -467,9 +467,9 @@ class WindowRun(Stepper):
 
     def state(self):
         arrays, scalars = self.engine.state.persistent()
-        return {_ENGINE + k: v for k, v in arrays.items()}, {
-                "engine": scalars, "controller": dataclasses.asdict(self.controller.state), "totals": self.totals,
-                        "rng_state": self.rng.bit_generator.state, "phi_initial": self._phi_initial}
+        attrs = {"engine": scalars, "controller": dataclasses.asdict(self.controller.state), "totals": self.totals,
+                 "rng_state": self.rng.bit_generator.state, "phi_initial": self._phi_initial}
+        return {_ENGINE + k: v for k, v in arrays.items()}, attrs
 
     def stop_before(self) -> str | None:
         return "target_phi" if self.rho_target is not None and self.engine.rho0 >= self.rho_target else None
