@@ -185,10 +185,11 @@ def _equilibrium_pressures(n, phi, seeds, windows):
         fluid = run_ls(poisson_packing(n, 0.0, seed=seed), 0.1, seed=seed, target_phi=phi, **QUIET).packing
         nominal = fluid.diameters / fluid.diameters.mean()
         v = maxwell_velocities(n, 0.2, np.random.default_rng(seed))
-        engine = LSEngine(fluid.positions, nominal, fluid.box, fluid.diameters.mean(), v, 0.0, all_images=True)
+        engine = LSEngine.start(fluid.positions, nominal, fluid.box, fluid.diameters.mean(), v, 0.0,
+                                all_images=True)
         for _ in range(5):
             engine.window(20 * n)
-        assert engine.multi
+        assert engine.state.multi
         out += [engine.window(20 * n).pressure for _ in range(windows)]
     return np.array(out)
 

@@ -5,6 +5,9 @@ fewer stages (final rate 1e-2, factor 4) on small N to stay fast. The science ch
 ``benchmarks/mls_science.py``.
 """
 
+import dataclasses
+import json
+
 import numpy as np
 import pytest
 
@@ -218,7 +221,7 @@ def _feed(controller, pressures):
     trace = []
     for p in pressures:
         reason = controller.after_window(_window(p))
-        trace.append((controller.rate, controller.stage))
+        trace.append((controller.rate, controller.state.stage))
         if reason:
             return reason, trace
     return None, trace
@@ -232,7 +235,7 @@ def test_stall_rule_ends_a_stage_whose_pressure_is_stuck_below_p_max():
     reason, trace = _feed(c, np.concatenate([[8e11, 3e4, 1e8], flat]))
     assert reason is None
     assert [rate for rate, _ in trace] == [10.0] * 23 + [0.0]
-    assert c.stalled_stages == 1 and c.stage == 1 and c.stall_count == 0
+    assert c.state.stalled_stages == 1 and c.state.stage == 1 and c.state.stall_count == 0
     assert isinstance(c.extras(NO_EVENTS).stalled_stages, int)  # JSON-safe for checkpoints
     # equilibration at p < p_max: compress again at gamma_0 / f
     reason, trace = _feed(c, [6.7e11])
@@ -256,19 +259,20 @@ def test_stall_rule_ends_a_stage_whose_pressure_is_stuck_below_p_max():
 def test_stall_rule_does_not_fire_on_growth_low_plateaus_or_when_off(pressures, stall_windows):
     c = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=stall_windows)
     reason, trace = _feed(c, pressures)
-    assert reason is None and c.stalled_stages == 0 and c.stage == 0
+    assert reason is None and c.state.stalled_stages == 0 and c.state.stage == 0
 
 
 def test_stall_rule_state_round_trips_and_old_checkpoints_load():
     c = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
     _feed(c, [7e11] * 6)
+    saved = json.loads(json.dumps(dataclasses.asdict(c.state)))  # as a checkpoint stores it
     copy = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
-    copy.load(c.state())
-    assert copy.state() == c.state() and copy.stall_count == 5
-    old = {k: v for k, v in c.state().items() if not k.startswith("stall")}
+    copy.restore(saved)
+    assert copy.state == c.state and copy.state.stall_count == 5
+    old = {k: v for k, v in saved.items() if not k.startswith("stall")}
     fresh = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
-    fresh.load(old)  # a checkpoint from before the rule: the count starts afresh
-    assert fresh.stall_count == 0 and fresh.stall_reference == 0.0 and fresh.rate == c.rate
+    fresh.restore(old)  # a checkpoint from before the rule: the count starts afresh
+    assert fresh.state.stall_count == 0 and fresh.state.stall_reference == 0.0 and fresh.rate == c.rate
 
 
 def test_cli_mls_stall_flags(tmp_path):

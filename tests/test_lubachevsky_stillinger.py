@@ -18,7 +18,7 @@ def _engine_for(packing, gamma, seed=0):
     nominal = packing.diameters / packing.diameters.mean()
     rho = float(np.min(_pair_ratios(packing.positions, nominal, packing.box)))
     v = maxwell_velocities(packing.n, T, np.random.default_rng(seed))
-    return LSEngine(packing.positions, nominal, packing.box, rho, v, gamma, T)
+    return LSEngine.start(packing.positions, nominal, packing.box, rho, v, gamma, T)
 
 
 def _pair_ratios(pos, nominal, box):
@@ -63,7 +63,7 @@ def test_two_body_head_on_collision_with_growth():
     v, gamma, rho0, d0, box = 0.3, 0.05, 1.0, 3.0, 40.0
     pos = np.array([[10.0, 10.0, 10.0], [10.0 + d0, 10.0, 10.0]])
     vel = np.array([[v, 0.0, 0.0], [-v, 0.0, 0.0]])
-    e = LSEngine(pos, np.ones(2), box, rho0, vel, gamma, T)
+    e = LSEngine.start(pos, np.ones(2), box, rho0, vel, gamma, T)
     stats = e.window(1, count_collisions=True)
     tau = (d0 - rho0) / (2 * v + gamma)
     assert stats.collisions == 1
@@ -88,7 +88,7 @@ def test_oblique_collision_conserves_momentum_and_tangential_velocity(rng):
     gamma, box = 0.2, 40.0
     pos = np.array([[10.0, 10.0, 10.0], [12.0, 10.7, 9.8]])
     vel = np.array([[0.4, 0.1, -0.05], [-0.3, -0.2, 0.1]])
-    e = LSEngine(pos, np.array([1.0, 1.5]), box, 0.9, vel, gamma, T)
+    e = LSEngine.start(pos, np.array([1.0, 1.5]), box, 0.9, vel, gamma, T)
     p0 = vel.sum(axis=0)
     # replay the collision time and contact normal independently
     r = pos[1] - pos[0]
@@ -135,7 +135,7 @@ def test_a_rattler_slowed_by_the_thermostat_does_not_stall_the_window():
     """A particle at |v| = 1e-162 (what fast MLS stages leave of a rattler) must not produce zero-time windows."""
     fluid = _fluid(300, 0.35, seed=4)
     e = _engine_for(fluid, 0.0)
-    e.st[7, 3:6] = np.array([2.6, -0.7, 1.2]) * 1e-162
+    e.state.st[7, 3:6] = np.array([2.6, -0.7, 1.2]) * 1e-162
     stats = e.window(20 * fluid.n)
     assert stats.duration > 0 and math.isfinite(stats.pressure)
     assert stats.collisions > 5 * fluid.n  # a real window, not a loop of skin events
@@ -248,6 +248,31 @@ def test_checkpoint_resume_finishes_identically(tmp_path):
     assert np.array_equal(resumed.packing.positions, reference.packing.positions)
     assert np.array_equal(resumed.history["phi"], reference.history["phi"])
     assert resumed.stats.collisions == reference.stats.collisions
+
+
+def test_checkpoint_saves_the_engine_state_whole_and_older_layouts_resume(tmp_path):
+    """A checkpoint holds the engine's EventState minus its work space, under the names checkpoints had before the
+    state object; one in that older layout (no ``box``, no ``multi``) resumes bitwise identically."""
+    from spherejam.core.checkpoint import load_checkpoint, save_checkpoint
+    from spherejam.engines.kernels.event_driven import WORKSPACE, EventState
+
+    packing = poisson_packing(200, 0.2, seed=5)
+    reference = run_ls(packing, 0.05, seed=4, progress_interval=1e9)
+    ckpt = tmp_path / "ls.h5"
+    cut = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, max_wall_time=1e-9, progress_interval=1e9)
+    assert cut.stats.stop_reason == "max_wall_time" and ckpt.exists()
+    arrays, attrs = load_checkpoint(ckpt, "ls")
+    engine_arrays = {k for k in arrays if k.startswith("engine_")}
+    assert engine_arrays == {f"engine_{k}" for k in ("st", "perm", "refs", "nbr", "nnb", "head", "nxt", "prv",
+                                                     "cellof")}
+    scalars = attrs["engine"]["engine"]  # the stepper's attributes, then the engine's
+    assert set(scalars) | {k[len("engine_"):] for k in engine_arrays} == set(EventState._fields) - set(WORKSPACE)
+    del scalars["box"], scalars["multi"]  # as written before the state object and before multi-image lists
+    save_checkpoint(ckpt, "ls", arrays, attrs)
+    resumed = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, progress_interval=1e9)
+    assert resumed.stats.resumed and resumed.stats.steps == reference.stats.steps
+    assert np.array_equal(resumed.packing.positions, reference.packing.positions)
+    assert np.array_equal(resumed.history["pressure"], reference.history["pressure"])
 
 
 
@@ -365,11 +390,12 @@ def test_engine_keeps_cache_line_alignment_and_input_order():
     """st and neighbour rows start on 64-byte lines; the cell-order renumbering is undone on output."""
     packing = poisson_packing(300, 0.2, seed=8)
     eng = _engine_for(packing, 0.1)
-    assert not np.array_equal(eng.perm, np.arange(packing.n))  # particles were renumbered
+    assert not np.array_equal(eng.state.perm, np.arange(packing.n))  # particles were renumbered
     for _ in range(3):
         eng.window(20 * packing.n)
-        assert eng.st.ctypes.data % 64 == 0 and eng.nbr.ctypes.data % 64 == 0 and eng.nbr.shape[1] % 16 == 0
+        s = eng.state
+        assert s.st.ctypes.data % 64 == 0 and s.nbr.ctypes.data % 64 == 0 and s.nbr.shape[1] % 16 == 0
     eng.rebuild_lists(0.0)
-    assert eng.st.ctypes.data % 64 == 0
+    assert eng.state.st.ctypes.data % 64 == 0
     nominal = packing.diameters / packing.diameters.mean()
     assert np.array_equal(eng.nominal, nominal)  # distinct diameters identify the particles

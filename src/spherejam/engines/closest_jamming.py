@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,6 +40,7 @@ from .driver import RunOptions
 from .lubachevsky_stillinger import (
     DEFAULT_TEMPERATURE,
     Controller,
+    RateState,
     WindowStats,
     _finite,
     run_windows,
@@ -55,17 +57,30 @@ STALL_BAND = 1.1
 DEFAULT_STALL_WINDOWS = 1000
 
 
-class MLSController(Controller):
-    """The MLS state machine, evaluated after every window.
+@dataclass
+class MLSState(RateState):
+    """Where the MLS search is (a checkpoint saves it whole). The stall fields default to a fresh count, as for a
+    checkpoint written before the stall rule."""
 
-    ``stage`` numbers the phases: 0 = first compression, 1 = first equilibration, 2 = compression at gamma_0/f, ...
-    """
+    restarts: int = 0  #: k, the rate decreases so far
+    equilibration_count: int = 0  #: zero-rate windows in a row with p >= p_max
+    stage: int = 0  #: 0 = first compression, 1 = first equilibration, 2 = compression at gamma_0/f, ...
+    last_growth_rate: float = 0.0  #: the rate of the last compression stage
+    equilibration_windows: int = 0  #: zero-rate windows in all
+    stall_reference: float = 0.0  #: p when the current flat stretch began (0: none yet in this stage)
+    stall_count: int = 0
+    stalled_stages: int = 0
+
+
+class MLSController(Controller):
+    """The MLS state machine, evaluated after every window; its changing part is ``state`` (an :class:`MLSState`)."""
 
     kind = CHECKPOINT_KIND_MLS
 
     def __init__(self, initial_rate: float, decrease_factor: float, final_rate: float, p_max: float,
                  max_equilibration_windows: int, stall_windows: int | None = DEFAULT_STALL_WINDOWS):
         super().__init__(initial_rate, p_max)
+        self.state = MLSState(rate=float(initial_rate), last_growth_rate=float(initial_rate))
         self.initial_rate = float(initial_rate)
         self.decrease_factor = float(decrease_factor)
         self.final_rate = float(final_rate)
@@ -73,75 +88,59 @@ class MLSController(Controller):
         while self.initial_rate / self.decrease_factor**self.final_stage > self.final_rate:
             self.final_stage += 1
         self.max_equilibration_windows = int(max_equilibration_windows)
-        self.restarts = 0  # k
-        self.equilibration_count = 0
-        self.stage = 0
-        self.last_growth_rate = float(initial_rate)
-        self.equilibration_windows = 0
         self.stall_windows = 0 if stall_windows is None else int(stall_windows)  # 0: rule off
-        self.stall_reference = 0.0  # p when the current flat stretch began (0: none yet in this stage)
-        self.stall_count = 0
-        self.stalled_stages = 0
 
     def _stalled(self, p: float) -> bool:
-        if self.stall_reference > 0 and self.stall_reference / STALL_BAND <= p <= self.stall_reference * STALL_BAND:
-            self.stall_count += 1
+        s = self.state
+        if s.stall_reference > 0 and s.stall_reference / STALL_BAND <= p <= s.stall_reference * STALL_BAND:
+            s.stall_count += 1
         else:
-            self.stall_reference, self.stall_count = p, 0
-        return (self.stall_windows > 0 and self.stall_count >= self.stall_windows
+            s.stall_reference, s.stall_count = p, 0
+        return (self.stall_windows > 0 and s.stall_count >= self.stall_windows
                 and p >= STALL_PRESSURE_FRACTION * self.p_max)
 
     def after_window(self, stats: WindowStats) -> str | None:
-        p = stats.pressure
-        if self.rate > 0:
+        p, s = stats.pressure, self.state
+        if s.rate > 0:
             stalled = bool(p < self.p_max and self._stalled(p))
             if p >= self.p_max or stalled:
-                self.stalled_stages += int(stalled)
-                if self.rate <= self.final_rate:
+                s.stalled_stages += int(stalled)
+                if s.rate <= self.final_rate:
                     return "final_rate_stalled" if stalled else "final_rate"
-                self.last_growth_rate = self.rate
-                self.rate = 0.0
-                self.equilibration_count = 0
-                self.stall_reference, self.stall_count = 0.0, 0
-                self.stage += 1
+                s.last_growth_rate = s.rate
+                s.rate = 0.0
+                s.equilibration_count = 0
+                s.stall_reference, s.stall_count = 0.0, 0
+                s.stage += 1
         else:
-            self.equilibration_windows += 1
+            s.equilibration_windows += 1
             if p < self.p_max:
-                self.restarts += 1
+                s.restarts += 1
                 # gamma_0 / f^k, not a running product, so no round-off accumulates
-                self.rate = self.initial_rate / self.decrease_factor**self.restarts
-                self.stage += 1
+                s.rate = self.initial_rate / self.decrease_factor**s.restarts
+                s.stage += 1
             else:
-                self.equilibration_count += 1
-                if self.equilibration_count >= self.max_equilibration_windows:
+                s.equilibration_count += 1
+                if s.equilibration_count >= self.max_equilibration_windows:
                     return "jammed"
         return None
 
     def extra_row(self) -> dict[str, Any]:
-        return {"stage": self.stage}
+        return {"stage": self.state.stage}
 
     def progress_fields(self) -> dict[str, Any]:
-        return {"stage": self.stage, "γ": self.rate, "stages left": max(self.final_stage - self.restarts, 0)}
-
-    _STATE = ("rate", "restarts", "equilibration_count", "stage", "last_growth_rate", "equilibration_windows",
-              "stall_reference", "stall_count", "stalled_stages")
-
-    def state(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in self._STATE}
-
-    def load(self, state: dict[str, Any]) -> None:
-        for k in self._STATE:
-            # checkpoints written before the stall rule lack its fields: they start from a fresh count
-            setattr(self, k, type(getattr(self, k))(state.get(k, getattr(self, k))))
+        s = self.state
+        return {"stage": s.stage, "γ": s.rate, "stages left": max(self.final_stage - s.restarts, 0)}
 
     def extras(self, counts: LSCounts) -> MLSCounts:
+        s = self.state
         return MLSCounts(
             **dataclasses.asdict(counts),
-            stages=self.stage + 1,
-            rate_decreases=self.restarts,
-            equilibration_windows=self.equilibration_windows,
-            final_rate_reached=self.rate if self.rate > 0 else self.last_growth_rate,
-            stalled_stages=self.stalled_stages,
+            stages=s.stage + 1,
+            rate_decreases=s.restarts,
+            equilibration_windows=s.equilibration_windows,
+            final_rate_reached=s.rate if s.rate > 0 else s.last_growth_rate,
+            stalled_stages=s.stalled_stages,
         )
 
 

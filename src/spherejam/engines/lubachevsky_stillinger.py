@@ -26,7 +26,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, get_type_hints
 
 import numpy as np
 
@@ -92,127 +92,151 @@ def _round_cap(cap: float) -> int:
     return -(-int(cap) // 16) * 16
 
 
-class LSEngine:
-    """Event-driven MD state of N growing hard spheres in a periodic cube (d = 3).
+@dataclass(frozen=True)
+class ListOptions:
+    """Tuning of the Verlet lists (no effect on the physics).
 
-    Parameters
-    ----------
-    positions : (N, 3) float64
-    nominal : (N,) float64
-        Nominal diameters D_i0 (any scale; actual diameters are ``rho * nominal``).
-    box : float
-        Side L of the periodic cube.
-    rho : float
-        Current diameter scale factor rho0; no pair may overlap at it.
-    velocities : (N, 3) float64
-    gamma : float
-        Compression rate d rho / dt (>= 0).
-    temperature : float
-        Target temperature T of the thermostat (k_B = m = 1).
-    skin_fraction : float
-        Verlet skin as a fraction of the mean actual diameter in dense states.
-    list_margin : float
-        Lists are built for diameters up to (1 + list_margin) times the current ones while compressing.
-    dilute_neighbours : float
-        In dilute states the list radius is widened so that about this many centres fall inside it.
-    all_images : bool
-        Predict collisions through every periodic image even where the minimum image suffices (a list cutoff
-        below L/2): the slower path of small boxes, for tests.
+    skin_fraction : Verlet skin as a fraction of the mean actual diameter in dense states.
+    list_margin : lists are built for diameters up to (1 + list_margin) times the current ones while compressing.
+    dilute_neighbours : in dilute states the list radius is widened so that about this many centres fall inside it.
+    all_images : predict collisions through every periodic image even where the minimum image suffices (a list
+        cutoff below L/2): the slower path of small boxes, for tests.
     """
 
-    def __init__(self, positions, nominal, box, rho, velocities, gamma, temperature=DEFAULT_TEMPERATURE, *,
-                 skin_fraction=0.2, list_margin=0.02, dilute_neighbours=8.0, all_images=False):
-        positions = np.asarray(positions, dtype=np.float64)
-        n = positions.shape[0]
-        self.n = n
-        self.box = float(box)
-        self.st = _aligned_zeros((n, 8))
-        self.st[:, 0:3] = positions
-        self.st[:, 3:6] = velocities
-        self.st[:, 7] = nominal
-        self.rho0 = float(rho)
-        self.gamma = float(gamma)
+    skin_fraction: float = 0.2
+    list_margin: float = 0.02
+    dilute_neighbours: float = 8.0
+    all_images: bool = False
+
+
+def fresh_state(positions, nominal, box, rho, velocities, gamma) -> ed.EventState:
+    """An :class:`~.kernels.event_driven.EventState` of N spheres at time 0 whose lists are still to be built
+    (:meth:`LSEngine.rebuild_lists`): positions (N, 3), nominal diameters D_i0 (N,), box side L, scale factor rho0
+    (no pair may overlap at it), velocities (N, 3) and compression rate gamma = d rho / dt >= 0."""
+    positions = np.asarray(positions, dtype=np.float64)
+    n = positions.shape[0]
+    st = _aligned_zeros((n, 8))
+    st[:, 0:3] = positions
+    st[:, 3:6] = velocities
+    st[:, 7] = nominal
+    cap = 16
+    empty = np.zeros(0, dtype=np.int64)
+    return ed.EventState(st=st, perm=np.arange(n), refs=np.zeros((n, 3)), nbr=_aligned_zeros((n, cap), np.int32),
+                         nnb=np.zeros(n, dtype=np.int32), head=empty, nxt=empty, prv=empty, cellof=empty,
+                         **ed.workspace(n, cap), box=float(box), m=1, rho0=float(rho), gamma=float(gamma),
+                         rho_list=float(rho), skin=0.0, multi=False, list_rebuilds=0)
+
+
+def restore_state(arrays: dict[str, np.ndarray], scalars: dict[str, Any], box: float) -> ed.EventState:
+    """The state a checkpoint saved (:meth:`~.kernels.event_driven.EventState.persistent`), work space fresh.
+
+    Checkpoints written before the state object lack ``box`` (the input's) and, before multi-image lists,
+    ``multi`` (they are single-image); their fields are otherwise the same."""
+    scalars = {"box": box, "multi": False, **scalars}
+    fields = {}
+    for name, kind in get_type_hints(ed.EventState).items():
+        if name not in ed.WORKSPACE:
+            fields[name] = _aligned_copy(arrays[name]) if kind is np.ndarray else kind(scalars[name])
+    return ed.EventState(**fields, **ed.workspace(len(fields["st"]), fields["nbr"].shape[1]))
+
+
+class LSEngine:
+    """Event-driven MD of N growing hard spheres in a periodic cube (d = 3): an
+    :class:`~.kernels.event_driven.EventState` (``state``, the only mutable part) stepped by windows.
+
+    Start one with :meth:`start`, or continue a saved ``state`` with ``LSEngine(state, temperature, options)``.
+    ``temperature`` is the target T of the thermostat (k_B = m = 1); ``options`` a :class:`ListOptions`.
+    """
+
+    def __init__(self, state: ed.EventState, temperature: float = DEFAULT_TEMPERATURE,
+                 options: ListOptions | None = None):
+        self.state = state
         self.temperature = float(temperature)
-        self.skin_fraction = float(skin_fraction)
-        self.list_margin = float(list_margin)
-        self.dilute_neighbours = float(dilute_neighbours)
-        self.all_images = bool(all_images)
-        self.allocate_events()
-        self.list_rebuilds = 0
-        self.perm = np.arange(n)  # internal index -> input index (particles are renumbered in cell order)
-        self.refs = None  # set by rebuild_lists
-        self.rebuild_lists(0.0)
+        self.options = ListOptions() if options is None else options
 
-    # --- neighbour lists ------------------------------------------------------------------------------------
+    @classmethod
+    def start(cls, positions, nominal, box, rho, velocities, gamma, temperature=DEFAULT_TEMPERATURE,
+              **options) -> LSEngine:
+        """A fresh engine (the arguments of :func:`fresh_state`; ``options`` the fields of :class:`ListOptions`),
+        its lists built at t = 0."""
+        engine = cls(fresh_state(positions, nominal, box, rho, velocities, gamma), temperature, ListOptions(**options))
+        engine.rebuild_lists(0.0)
+        return engine
 
-    def allocate_events(self) -> None:
-        """Per-particle event arrays and the heap (contents are set by the first event initialisation)."""
-        n = self.n
-        self.ev_time = np.zeros(n)
-        self.ev_type = np.zeros(n, dtype=np.int8)
-        self.ev_partner = np.full(n, -1, dtype=np.int32)
-        self.heap = np.zeros(n, dtype=np.int32)
-        self.hpos = np.zeros(n, dtype=np.int32)
-        self.hkey = np.zeros(n)
+    @property
+    def n(self) -> int:
+        return self.state.st.shape[0]
+
+    @property
+    def rho0(self) -> float:
+        """The diameter scale factor now (between windows)."""
+        return self.state.rho0
+
+    def set_rate(self, gamma: float) -> None:
+        """The compression rate d rho / dt of the following windows."""
+        self.state = self.state._replace(gamma=float(gamma))
 
     @property
     def rho_limit(self) -> float:
         """The scale factor at which the largest sphere touches its own periodic image (diameter L): no sphere can
         grow beyond it."""
-        return self.box / float(self.st[:, 7].max())
+        return self.state.box / float(self.state.st[:, 7].max())
+
+    # --- neighbour lists ------------------------------------------------------------------------------------
 
     def rebuild_lists(self, t: float) -> None:
         """Rebuild all Verlet lists at time t (every particle must be synchronised to t)."""
-        n, box = self.n, self.box
-        nominal = self.st[:, 7]
-        rho = self.rho0 + self.gamma * t
+        s, opt = self.state, self.options
+        n, box = self.n, s.box
+        nominal = s.st[:, 7]
+        rho = s.rho0 + s.gamma * t
         dmean, dmax = float(nominal.mean()), float(nominal.max())
-        margin = self.list_margin if self.gamma > 0 else 0.0
+        margin = opt.list_margin if s.gamma > 0 else 0.0
         spacing = (box**3 / n) ** (1.0 / 3.0)
-        r_dilute = spacing * (3.0 * self.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
+        r_dilute = spacing * (3.0 * opt.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
         limit = 0.45 * box  # single image: every list cutoff stays below L/2
-        self.multi = self.all_images or not rho * dmax < 0.9 * limit
-        if not self.multi:
+        multi = opt.all_images or not rho * dmax < 0.9 * limit
+        if not multi:
             rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
             max_skin = limit - rho_list * dmax
         else:  # pairs may meet through several images (docs/algorithms.md, "Any box, any size ratio")
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
             max_skin = MULTI_IMAGE_MAX_SKIN * box  # images one box away suffice (ed.image_collision)
-        skin = min(max(self.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
+        skin = min(max(opt.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
         m = cells_per_side(box, rho_list * dmax + skin, 3, n)
-        self._sort_by_cell(m)
-        cap = 16 if self.refs is None else self.nbr.shape[1]
+        st, perm = self._sorted_by_cell(m)
+        cap = s.nbr.shape[1]
         while True:
             nbr = _aligned_zeros((n, cap), np.int32)
-            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(self.st, box, rho_list, skin, m, nbr)
+            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, box, rho_list, skin, m, nbr)
             if max_count + 4 <= cap:
                 break
             cap = _round_cap(1.5 * max_count + 16)
-        self.refs, self.nbr, self.nnb = refs, nbr, nnb
-        self.head, self.nxt, self.prv, self.cellof = head, nxt, prv, cellof
-        self.m, self.rho_list, self.skin = m, rho_list, skin
-        self.scratch = np.zeros((1, max(cap, 64)), dtype=np.int32)
-        self.list_rebuilds += 1
+        self.state = s._replace(st=st, perm=perm, refs=refs, nbr=nbr, nnb=nnb, head=head, nxt=nxt, prv=prv,
+                                cellof=cellof, scratch=ed.scratch_row(cap), m=m, rho_list=rho_list, skin=skin,
+                                multi=multi, list_rebuilds=s.list_rebuilds + 1)
 
-    def _sort_by_cell(self, m: int) -> None:
-        """Renumber particles in cell order so that neighbours sit close in memory (all particles synchronised)."""
-        order = cell_sort(np.mod(self.st[:, 0:3], self.box), self.box, m)[2]
+    def _sorted_by_cell(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(st, perm)`` renumbered in cell order, so that neighbours sit close in memory (all particles
+        synchronised)."""
+        s = self.state
+        order = cell_sort(np.mod(s.st[:, 0:3], s.box), s.box, m)[2]
         if np.any(order != np.arange(self.n)):
-            self.st = _aligned_copy(self.st[order])
-            self.perm = self.perm[order]
+            return _aligned_copy(s.st[order]), s.perm[order]
+        return s.st, s.perm
 
     def _enlarge_lists(self) -> None:
-        cap = self.nbr.shape[1]
+        s = self.state
+        cap = s.nbr.shape[1]
         new_cap = _round_cap(1.5 * cap + 8)
         nbr = _aligned_zeros((self.n, new_cap), np.int32)
-        nbr[:, :cap] = self.nbr
-        self.nbr = nbr
-        self.scratch = np.zeros((1, new_cap), dtype=np.int32)
+        nbr[:, :cap] = s.nbr
+        self.state = s._replace(nbr=nbr, scratch=ed.scratch_row(new_cap))
 
     # --- windows --------------------------------------------------------------------------------------------
     def _original_order(self, columns: slice) -> np.ndarray:
         out = np.empty((self.n, columns.stop - columns.start))
-        out[self.perm] = self.st[:, columns]
+        out[self.state.perm] = self.state.st[:, columns]
         return out
 
     @property
@@ -231,7 +255,7 @@ class LSEngine:
         return self._original_order(slice(7, 8))[:, 0]
 
     def kinetic_energy(self) -> float:
-        v = self.st[:, 3:6]
+        v = self.state.st[:, 3:6]
         return 0.5 * float(np.sum(v * v))
 
     def thermalise(self) -> None:
@@ -239,53 +263,50 @@ class LSEngine:
         e = self.kinetic_energy()
         if not e > 0:
             raise SimulationError(f"kinetic energy {e!r}: cannot rescale to T = {self.temperature}")
-        self.st[:, 3:6] *= math.sqrt(1.5 * self.n * self.temperature / e)
+        self.state.st[:, 3:6] *= math.sqrt(1.5 * self.n * self.temperature / e)
+
+    def _events(self, target: int, count_collisions: bool, rho_target: float | None,
+                counters: np.ndarray, acc: np.ndarray) -> tuple[float, bool, bool]:
+        """The event loop of a window: kernel calls, list enlargements and rebuilds until ``target`` events (or
+        collisions), ``rho_target`` or the self-contact limit. Returns ``(t, reached, self_contact)``."""
+        t = 0.0
+        need_init = True
+        while True:
+            s = self.state
+            g = s.gamma
+            t_list = (s.rho_list - s.rho0) / g if g > 0 else math.inf
+            t_target = (rho_target - s.rho0) / g if (rho_target is not None and g > 0) else math.inf
+            t_limit = max((self.rho_limit - s.rho0) / g, 0.0) if g > 0 else math.inf
+            horizon = min(t_list, t_target, t_limit)
+            if need_init:
+                ed.init_events(s, t)
+            status, t = ed.run_events(s, t, target, count_collisions, horizon, counters, acc)
+            if status == ed.WINDOW_DONE:
+                return t, False, False
+            if status == ed.OVERFLOW:
+                self._enlarge_lists()
+                need_init = False
+            elif status == ed.HORIZON:
+                if t >= t_limit:
+                    return t, False, True
+                if t >= t_target:
+                    return t, True, False
+                self.rebuild_lists(t)
+                need_init = True
+            else:
+                raise SimulationError(f"event queue inconsistent at t={t!r} (an event time went backwards or NaN)")
 
     def window(self, target: int, count_collisions: bool = False, rho_target: float | None = None) -> WindowStats:
         """Run one window of ``target`` events (or collisions), then pressure, thermostat and clock reset.
 
         If ``rho_target`` is reached first, the window ends there (``reached_target``).
         """
-        t = 0.0
         counters = np.zeros(ed.N_COUNTERS, dtype=np.int64)
         acc = np.zeros(1)
-        rebuilds0 = self.list_rebuilds
-        need_init = True
-        reached = self_contact = False
-        if not np.all(self.st[:, 6] == 0.0):
+        rebuilds0 = self.state.list_rebuilds
+        if not np.all(self.state.st[:, 6] == 0.0):
             raise SimulationError("window started with unsynchronised particles")
-        while True:
-            g = self.gamma
-            t_list = (self.rho_list - self.rho0) / g if g > 0 else math.inf
-            t_target = (rho_target - self.rho0) / g if (rho_target is not None and g > 0) else math.inf
-            t_limit = max((self.rho_limit - self.rho0) / g, 0.0) if g > 0 else math.inf
-            horizon = min(t_list, t_target, t_limit)
-            if need_init:
-                ed.init_events(t, self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap,
-                               self.hpos, self.hkey, self.nbr, self.nnb, self.box, self.rho0, g, self.skin,
-                               self.rho_list, self.multi)
-            status, t = ed.run_events(
-                self.st, self.refs, self.ev_time, self.ev_type, self.ev_partner, self.heap, self.hpos, self.hkey,
-                self.nbr, self.nnb, self.head, self.nxt, self.prv, self.cellof, self.scratch, self.box, self.m,
-                self.rho0, g, self.rho_list, self.skin, self.multi, t, target, count_collisions, horizon, counters,
-                acc,
-            )
-            if status == ed.WINDOW_DONE:
-                break
-            if status == ed.OVERFLOW:
-                self._enlarge_lists()
-                need_init = False
-            elif status == ed.HORIZON:
-                if t >= t_limit:
-                    self_contact = True
-                    break
-                if t >= t_target:
-                    reached = True
-                    break
-                self.rebuild_lists(t)
-                need_init = True
-            else:
-                raise SimulationError(f"event queue inconsistent at t={t!r} (an event time went backwards or NaN)")
+        t, reached, self_contact = self._events(target, count_collisions, rho_target, counters, acc)
         e = self.kinetic_energy()
         if not (math.isfinite(e) and e > 0):
             raise SimulationError(f"kinetic energy {e!r} after a window")
@@ -297,34 +318,19 @@ class LSEngine:
         pressure = 1.0 + abs(acc[0]) / (2.0 * e * t) if t > 0 else math.inf
         temperature = 2.0 * e / (3.0 * self.n)
         self.thermalise()
-        self.rho0 = min(self.rho0 + self.gamma * t, self.rho_limit) if self_contact else self.rho0 + self.gamma * t
-        self.st[:, 6] = 0.0
-        h = ed.min_listed_ratio(self.st, self.nbr, self.nnb, self.box, self.rho0)
+        s = self.state
+        rho0 = min(s.rho0 + s.gamma * t, self.rho_limit) if self_contact else s.rho0 + s.gamma * t
+        self.state = s = s._replace(rho0=rho0)
+        s.st[:, 6] = 0.0
+        h = ed.min_listed_ratio(s.st, s.nbr, s.nnb, s.box, s.rho0)
         if h < 1.0 - AUDIT_TOLERANCE:
             raise SimulationError(f"overlap {1.0 - h:.3e} (relative) after a window: an event was lost")
         return WindowStats(
             duration=t, pressure=pressure, temperature=temperature, collisions=int(counters[ed.C_COLLISIONS]),
             events=int(counters[ed.C_EVENTS]), skin_events=int(counters[ed.C_SKIN]),
             moves=int(counters[ed.C_MOVES]), null_collisions=int(counters[ed.C_NULL]),
-            list_rebuilds=self.list_rebuilds - rebuilds0, reached_target=reached, self_contact=self_contact,
+            list_rebuilds=s.list_rebuilds - rebuilds0, reached_target=reached, self_contact=self_contact,
         )
-
-    # --- checkpoint state -----------------------------------------------------------------------------------
-    _ARRAYS = ("st", "perm", "refs", "nbr", "nnb", "head", "nxt", "prv", "cellof")
-
-    def state(self) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        arrays = {f"engine_{k}": getattr(self, k) for k in self._ARRAYS}
-        attrs = {k: getattr(self, k) for k in ("rho0", "gamma", "rho_list", "skin", "m", "list_rebuilds", "multi")}
-        return arrays, attrs
-
-    def load_state(self, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> None:
-        for k in self._ARRAYS:
-            setattr(self, k, _aligned_copy(arrays[f"engine_{k}"]))
-        self.rho0, self.gamma = float(attrs["rho0"]), float(attrs["gamma"])
-        self.rho_list, self.skin = float(attrs["rho_list"]), float(attrs["skin"])
-        self.m, self.list_rebuilds = int(attrs["m"]), int(attrs["list_rebuilds"])
-        self.multi = bool(attrs.get("multi", False))  # checkpoints from before multi-image lists are single-image
-        self.scratch = np.zeros((1, max(self.nbr.shape[1], 64)), dtype=np.int32)
 
 
 # --- LS-type runs (plain LS and MLS): windows under a rate controller --------------------------------------------
@@ -356,14 +362,36 @@ def _finite(x) -> bool:
     return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and math.isfinite(x)
 
 
+@dataclass
+class RateState:
+    """What a :class:`Controller` changes window by window (a checkpoint saves it whole): the rate gamma."""
+
+    rate: float
+
+
+def restore_dataclass(cls, saved: dict[str, Any]):
+    """``cls`` from a checkpoint's dict, each field cast to its type; a field the checkpoint lacks (written before
+    the field existed) takes its default."""
+    return cls(**{name: kind(saved[name]) for name, kind in get_type_hints(cls).items() if name in saved})
+
+
 class Controller:
-    """Decides the compression rate window by window (plain LS: constant rate, stop at p >= p_max)."""
+    """Decides the compression rate window by window (plain LS: constant rate, stop at p >= p_max); its
+    changing part is ``state`` (a :class:`RateState`)."""
 
     kind = CHECKPOINT_KIND_LS
 
     def __init__(self, rate: float, p_max: float):
-        self.rate = float(rate)
+        self.state = RateState(float(rate))
         self.p_max = float(p_max)
+
+    @property
+    def rate(self) -> float:
+        return self.state.rate
+
+    def restore(self, saved: dict[str, Any]) -> None:
+        """Continue from a checkpoint's ``dataclasses.asdict(state)``."""
+        self.state = restore_dataclass(type(self.state), saved)
 
     def after_window(self, stats: WindowStats) -> str | None:
         """Update the rate after a window; return a stop reason or None."""
@@ -377,12 +405,6 @@ class Controller:
         """What the live status line shows of the controller (the driver adds p, phi, collisions/s)."""
         return {"γ": self.rate}
 
-    def state(self) -> dict[str, Any]:
-        return {"rate": self.rate}
-
-    def load(self, state: dict[str, Any]) -> None:
-        self.rate = float(state["rate"])
-
     def extras(self, counts: LSCounts) -> LSCounts | MLSCounts:
         """The extras of the run's :class:`RunStats`, from the event totals."""
         return counts
@@ -390,6 +412,8 @@ class Controller:
 
 #: Event totals of a run, as kept in its checkpoint: LSCounts' fields plus collisions and windows.
 _TOTALS = ("collisions", "windows") + tuple(f.name for f in dataclasses.fields(LSCounts))
+#: Prefix of the engine state's arrays in a checkpoint.
+_ENGINE = "engine_"
 #: Parameters that only bound the run: they do not enter the checkpoint's fingerprint.
 _BUDGETS = ("max_wall_time", "max_collisions", "checkpoint_interval", "progress_interval")
 
@@ -426,15 +450,15 @@ class WindowRun(Stepper):
         rho = closest_pair(self.input.positions, self.nominal, self.input.box)[2]
         rho = min(rho, self.input.box / float(self.nominal.max()))  # nor may a sphere overlap its own image
         velocities = maxwell_velocities(self.input.n, self.temperature, self.rng)
-        self.engine = LSEngine(self.input.positions, self.nominal, self.input.box, rho, velocities,
-                               self.controller.rate, self.temperature, **(self.engine_options or {}))
+        self.engine = LSEngine.start(self.input.positions, self.nominal, self.input.box, rho, velocities,
+                                     self.controller.rate, self.temperature, **(self.engine_options or {}))
         self._phi_initial = self.phi_nominal * rho**3
 
     def load(self, arrays, attrs, history) -> None:
-        self.engine = LSEngine.__new__(LSEngine)
-        _init_bare(self.engine, self.input.n, self.input.box, self.temperature, self.engine_options)
-        self.engine.load_state(arrays, attrs["engine"])
-        self.controller.load(attrs["controller"])
+        saved = {k[len(_ENGINE):]: v for k, v in arrays.items() if k.startswith(_ENGINE)}
+        state = restore_state(saved, attrs["engine"], self.input.box)
+        self.engine = LSEngine(state, self.temperature, ListOptions(**(self.engine_options or {})))
+        self.controller.restore(attrs["controller"])
         self.history = History(history)
         self.totals = dict(attrs["totals"])
         self.rng.bit_generator.state = attrs["rng_state"]
@@ -442,15 +466,17 @@ class WindowRun(Stepper):
         self.last_pressure = float(self.history.last("pressure", math.nan))
 
     def state(self):
-        arrays, engine_attrs = self.engine.state()
-        return arrays, {"engine": engine_attrs, "controller": self.controller.state(), "totals": self.totals,
-                        "rng_state": self.rng.bit_generator.state, "phi_initial": self._phi_initial}
+        arrays, scalars = self.engine.state.persistent()
+        attrs = {"engine": scalars, "controller": dataclasses.asdict(self.controller.state), "totals": self.totals,
+                 "rng_state": self.rng.bit_generator.state, "phi_initial": self._phi_initial}
+        return {_ENGINE + k: v for k, v in arrays.items()}, attrs
 
     def stop_before(self) -> str | None:
         return "target_phi" if self.rho_target is not None and self.engine.rho0 >= self.rho_target else None
 
     def step(self, wall_time) -> str | None:
-        rate = self.engine.gamma = self.controller.rate
+        rate = self.controller.rate
+        self.engine.set_rate(rate)
         stats = self.engine.window(self.target, self.count_collisions_only, self.rho_target)
         for key in _TOTALS[2:]:
             self.totals[key] += getattr(stats, key)
@@ -524,17 +550,6 @@ def run_windows(packing: Packing, controller: Controller, options: RunOptions, *
     """Drive LS windows under ``controller`` (the arguments of :class:`WindowRun`) with the run ``options``."""
     run = WindowRun(packing, controller, **kwargs)
     return drive(run, options, run.fingerprint(), callback=run.callback)
-
-
-def _init_bare(engine: LSEngine, n: int, box: float, temperature: float, options: dict[str, Any] | None) -> None:
-    opts = {"skin_fraction": 0.2, "list_margin": 0.02, "dilute_neighbours": 8.0, "all_images": False}
-    opts.update(options or {})
-    engine.n, engine.box, engine.temperature = n, float(box), float(temperature)
-    engine.skin_fraction = float(opts["skin_fraction"])
-    engine.list_margin = float(opts["list_margin"])
-    engine.dilute_neighbours = float(opts["dilute_neighbours"])
-    engine.all_images = bool(opts["all_images"])
-    engine.allocate_events()
 
 
 def run_ls(packing: Packing, rate: float, *, p_max: float = 1e12, seed: int = 0, target_phi: float | None = None,

@@ -4,7 +4,7 @@ This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherej
 protocol itself (windows, pressure, thermostat, stopping, checkpoints) lives there. All functions are numba
 ``njit(cache=True)`` kernels over plain arrays.
 
-State (structure of arrays, one cache line per particle)
+State (one :class:`EventState`; particles as a structure of arrays, one cache line per particle)
     ``st[i] = (x, y, z, vx, vy, vz, t_i, D_i)``: position at the particle's own last-update time ``t_i``
     (positions are advanced lazily, x(t) = x_i + v_i (t - t_i)), velocity, and nominal diameter D_i (mean 1).
     Actual diameters are rho(t) D_i with rho(t) = rho0 + gamma t (gamma = d rho/dt, the paper's compression rate).
@@ -35,6 +35,8 @@ Speed (the hot loop is a prediction over ~10 neighbours)
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
@@ -43,6 +45,65 @@ from numba.extending import intrinsic
 
 from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
                                 unravel_cell)
+
+
+class EventState(NamedTuple):
+    """The whole state of the event-driven engine, one object (numba types a NamedTuple of arrays and scalars).
+
+    The kernels write into its arrays in place and only read its scalars; the caller replaces the tuple
+    (``_replace``) when a scalar changes or a full rebuild reallocates an array. Checkpoints save it whole
+    (:meth:`persistent`), minus the :data:`WORKSPACE` that every window recomputes (docs/algorithms.md §7.3).
+    """
+
+    st: np.ndarray  #: (N, 8) float64 rows (x, y, z, vx, vy, vz, t_i, D_i), 64-byte aligned
+    perm: np.ndarray  #: (N,) int64 row -> input particle index (rows are renumbered in cell order)
+    refs: np.ndarray  #: (N, 3) reference centres of the Verlet lists
+    nbr: np.ndarray  #: (N, cap) int32 neighbour lists, 64-byte aligned
+    nnb: np.ndarray  #: (N,) int32 list lengths
+    head: np.ndarray  #: linked cells of the reference centres (core.neighbours.link_cells)
+    nxt: np.ndarray
+    prv: np.ndarray
+    cellof: np.ndarray
+    ev_time: np.ndarray  #: (N,) each particle's scheduled event
+    ev_type: np.ndarray  #: (N,) int8 MOVE, COLLISION or SKIN
+    ev_partner: np.ndarray  #: (N,) int32 collision partner or -1
+    heap: np.ndarray  #: (N,) int32 indexed 4-ary min-heap of particles by event time
+    hpos: np.ndarray  #: (N,) int32 heap position of each particle
+    hkey: np.ndarray  #: (N,) event times in heap order
+    scratch: np.ndarray  #: (1, >= cap) int32 work row of a local list update
+    box: float  #: side L of the periodic cube
+    m: int  #: cells per side
+    rho0: float  #: diameter scale factor at t = 0 of the current window
+    gamma: float  #: compression rate d rho / dt
+    rho_list: float  #: scale factor up to which the lists are exact
+    skin: float  #: Verlet skin
+    multi: bool  #: pairs may meet through several periodic images
+    list_rebuilds: int  #: full rebuilds so far
+
+    def persistent(self) -> tuple[dict[str, np.ndarray], dict[str, float | int | bool]]:
+        """``(arrays, scalars)``: every field but the :data:`WORKSPACE`, for a checkpoint."""
+        arrays, scalars = {}, {}
+        for name, value in self._asdict().items():
+            if name not in WORKSPACE:
+                (arrays if isinstance(value, np.ndarray) else scalars)[name] = value
+        return arrays, scalars
+
+
+#: Fields whose contents are dead between windows: a window predicts every event afresh (:func:`init_events`) and
+#: the scratch row holds nothing across calls. A restored state gets them from :func:`workspace`.
+WORKSPACE = ("ev_time", "ev_type", "ev_partner", "heap", "hpos", "hkey", "scratch")
+
+
+def workspace(n: int, cap: int) -> dict[str, np.ndarray]:
+    """Fresh :data:`WORKSPACE` arrays for N particles and neighbour lists of width ``cap``."""
+    return {"ev_time": np.zeros(n), "ev_type": np.zeros(n, dtype=np.int8),
+            "ev_partner": np.full(n, -1, dtype=np.int32), "heap": np.zeros(n, dtype=np.int32),
+            "hpos": np.zeros(n, dtype=np.int32), "hkey": np.zeros(n), "scratch": scratch_row(cap)}
+
+
+def scratch_row(cap: int) -> np.ndarray:
+    return np.zeros((1, max(cap, 64)), dtype=np.int32)
+
 
 MOVE = 0
 COLLISION = 1
@@ -452,12 +513,15 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
 @njit(cache=True, inline="always")
 def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
              rho0, gamma, skin, rho_list, multi, update_heap):
-    """Schedule particle i's next event at time t (its own current event is released first).
+    """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
+    are :class:`EventState`'s fields.
 
     ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
-    some 100 words of array descriptors per prediction.
+    some 100 words of array descriptors per prediction. Its callers unpack the state once, outside their loops: each
+    field read from the tuple takes a reference to its array (an atomic increment and decrement), too slow for the
+    event loop (docs/algorithms.md §7.3).
     """
     n = st.shape[0]
     half = 0.5 * box
@@ -533,9 +597,11 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
 
 
 @njit(cache=True)
-def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box, rho0, gamma, skin,
-                rho_list, multi):
-    """Predict every particle's event from scratch (all synchronised at t) and build the heap."""
+def init_events(s, t):
+    """Predict every particle's event in state ``s`` from scratch (all synchronised at t) and build the heap."""
+    st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
+    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
+    box, rho0, gamma, skin, rho_list, multi = s.box, s.rho0, s.gamma, s.skin, s.rho_list, s.multi
     n = st.shape[0]
     for i in range(n):
         ev_time[i] = t
@@ -548,14 +614,18 @@ def init_events(t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr
 
 
 @njit(cache=True)
-def run_events(st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-               nbr, nnb, head, nxt, prv, cellof, scratch, box, m,
-               rho0, gamma, rho_list, skin, multi, t, target, count_collisions, t_horizon, counters, acc):
-    """Process events from time t until ``target`` events (or collisions) are counted in ``counters``.
+def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
+    """Process the events of state ``s`` from time t until ``target`` events (or collisions) are counted in
+    ``counters``.
 
     ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
     Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
     """
+    # every field unpacked once, outside the loop (see _predict)
+    st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
+    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
+    scratch, box, m, rho0, gamma, rho_list, skin, multi = s.scratch, s.box, s.m, s.rho0, s.gamma, s.rho_list, \
+        s.skin, s.multi
     half = 0.5 * box
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
