@@ -252,6 +252,7 @@ def test_archive_of_a_run_is_browsable(tiny_run, tmp_path, capsys):
     """spherejam archive packs the dataset, tables, figures and chosen packings with a README; browse --tables,
     --packing and --figure work on the archive as on the run; a too-large archive is refused before writing."""
     from spherejam.cli import main
+    from spherejam.core.packing_io import read_packing
     from spherejam.workflow.dataset import open_dataset
 
     results, _ = tiny_run
@@ -273,6 +274,16 @@ def test_archive_of_a_run_is_browsable(tiny_run, tmp_path, capsys):
     assert str(archive / "packings" / key / "jammed.h5") in out
     assert main(["browse", str(archive / "dataset.nc"), "--figure", "fig4", "-o", str(tmp_path / "f4")]) == 0
     assert (tmp_path / "f4.png").stat().st_size > 1000
+    # without the run histories: the packing is the same, its file smaller, its provenance kept
+    slim = tmp_path / "slim"
+    assert main(["archive", str(results), "-o", str(slim), "--packings", key, "--no-history"]) == 0
+    full, stripped = results / "packings" / key / "jammed.h5", slim / "packings" / key / "jammed.h5"
+    a, b = read_packing(full), read_packing(stripped)
+    assert np.array_equal(a.positions, b.positions) and a.phi == b.phi and a.metadata == b.metadata
+    assert read_packing(stripped, with_history=True)[1] == {} and stripped.stat().st_size < full.stat().st_size
+    assert "without their run histories" in (slim / "README.md").read_text()
+    assert main(["archive", str(results), "-o", str(slim), "--packings", "*", "--no-history", "--max-mb", "0.01"]) == 2
+    assert (slim / "packings" / key / "jammed.h5").is_file()  # refused after writing: the old archive is intact
     # again, with fewer packings: the archive is replaced as a whole
     assert main(["archive", str(results), "-o", str(archive)]) == 0
     assert not (archive / "packings").exists()

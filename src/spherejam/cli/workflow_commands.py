@@ -40,6 +40,8 @@ def register(sub) -> None:
                    help="also the files of the packings whose key matches this glob, e.g. 'n1000/*' (repeatable)")
     p.add_argument("--stage", action="append", choices=("poisson", "initial", "jammed", "calippso_packing"),
                    help="which file of each chosen packing (repeatable; default jammed)")
+    p.add_argument("--no-history", action="store_true",
+                   help="copy the packing files without their run histories (most of a jammed file's size)")
     p.add_argument("--max-mb", type=finite_float, default=20.0, help="refuse a larger archive (default 20 MB)")
     p.set_defaults(func=_archive)
 
@@ -106,8 +108,9 @@ def _archive(args) -> int:
     command = "spherejam " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:2] == ["archive"] else (
         "spherejam archive")
     plan = write_archive(args.results, args.output, args.packings, tuple(args.stage or ("jammed",)), args.max_mb,
-                         command)
-    print(f"{args.output}: {len(plan.files) + 1} files, {plan.size / 1e6:.1f} MB")
+                         command, args.no_history)
+    size = sum(p.stat().st_size for p in args.output.rglob("*") if p.is_file())
+    print(f"{args.output}: {len(plan.files) + 1} files, {size / 1e6:.1f} MB")
     return 0
 
 

@@ -66,7 +66,7 @@ def plan_archive(results: str | os.PathLike, packings: list[str] = (), stages: t
     return ArchivePlan(files, sum(p.stat().st_size for p in files.values()))
 
 
-def readme(ds, plan: ArchivePlan, command: str) -> str:
+def readme(ds, plan: ArchivePlan, command: str, stripped: bool = False) -> str:
     """The archive's README.md: what it holds, which code and config made it, and how to look at it."""
     config = dataset_config(ds)
     sizes = sizes_in(ds)
@@ -90,8 +90,9 @@ def readme(ds, plan: ArchivePlan, command: str) -> str:
         "",
         "Contents: `dataset.nc` (every packing's scalars and provenance), `tables/` (Tables 2-4 next to the paper's, "
         "`comparison.md`" + (", `finite_size.md`" if "tables/finite_size.md" in plan.files else "") + "), "
-        f"`figures/` ({', '.join(figures)})" + (", `packings/` (jammed packings, spherejam HDF5)" if n_packings
-                                                  else "") + ".",
+        f"`figures/` ({', '.join(figures)})" + (", `packings/` (jammed packings, spherejam HDF5"
+                                                  + ("; without their run histories" if stripped else "") + ")"
+                                                  if n_packings else "") + ".",
         "",
         "Look at it without running anything:",
         "",
@@ -106,17 +107,35 @@ def readme(ds, plan: ArchivePlan, command: str) -> str:
     return "\n".join(lines)
 
 
+def copy_without_history(source: Path, target: Path) -> None:
+    """Copy a packing file without its run history (the per-window arrays of LS/MLS, most of a jammed file's size):
+    positions, diameters, every other group and every attribute, provenance included, are kept as they are."""
+    import h5py
+
+    with h5py.File(source, "r") as fin, h5py.File(target, "w") as fout:
+        for key, value in fin.attrs.items():
+            fout.attrs[key] = value
+        for name in fin:
+            if name != "history":
+                fin.copy(name, fout)
+
+
+def _size(folder: Path) -> int:
+    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+
+
 def write_archive(results: str | os.PathLike, out: str | os.PathLike, packings: list[str] = (),
-                  stages: tuple[str, ...] = ("jammed",), max_mb: float = 20.0, command: str = "spherejam archive"
-                  ) -> ArchivePlan:
+                  stages: tuple[str, ...] = ("jammed",), max_mb: float = 20.0, command: str = "spherejam archive",
+                  strip_history: bool = False) -> ArchivePlan:
     """Copy :func:`plan_archive` of ``results`` to the folder ``out`` (replacing an archive there as a whole), with
-    its README.md. Refuses one larger than ``max_mb`` megabytes before writing anything."""
+    its README.md; ``strip_history`` leaves the run histories out of the packing files. Refuses one larger than
+    ``max_mb`` megabytes, leaving an archive already there as it was."""
     plan = plan_archive(results, list(packings), stages)
-    if plan.size > max_mb * 1e6:
+    if plan.size > max_mb * 1e6 and not strip_history:  # stripped, the size is known once written
         raise InputError(f"--max-mb={max_mb:g}: the archive would hold {plan.size / 1e6:.1f} MB; choose fewer "
                          "--packings (or raise the limit)")
     ds = open_dataset(Path(results) / "dataset.nc")
-    text = readme(ds, plan, command)
+    text = readme(ds, plan, command, strip_history)
     names = [*plan.files, "README.md"]
     out = Path(out)
     old = None
@@ -130,8 +149,14 @@ def write_archive(results: str | os.PathLike, out: str | os.PathLike, packings: 
         with atomic_folder(out, names) as tmp:  # out is missing now: the new archive appears in one rename
             for name, source in plan.files.items():
                 (tmp / name).parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(source, tmp / name)
+                if strip_history and name.startswith("packings/") and name.endswith(".h5"):
+                    copy_without_history(source, tmp / name)
+                else:
+                    shutil.copy2(source, tmp / name)
             (tmp / "README.md").write_text(text)
+            if _size(tmp) > max_mb * 1e6:
+                raise InputError(f"--max-mb={max_mb:g}: the archive would hold {_size(tmp) / 1e6:.1f} MB; choose "
+                                 "fewer --packings (or raise the limit)")
     except BaseException:
         if old is not None:
             os.rename(old, out)
