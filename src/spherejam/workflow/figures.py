@@ -19,7 +19,7 @@ from ..core.errors import InputError
 from .bands import FAST_DEFAULTS
 from . import finite_size, paper_reference
 from .dataset import at_n, dataset_config, sizes_in
-from .tables import TABLE2_ROWS, band_settings, completed_phi_J, compute_tables, fast_bands
+from .tables import TABLE2_ROWS, band_settings, completed_phi_J, compute_tables, fast_bands, paper_row
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
 SIGMA_MARKERS = "osD^v<>ph*"
@@ -553,26 +553,15 @@ def _scaling_panel(ax, samples, protocol, group, alpha, conf, target, paper, pap
         ax.errorbar([0.0], [limit.value], yerr=[[limit.value - lo], [hi - limit.value]], fmt="D", color="tab:purple",
                     ms=4, capsize=3, label="N → ∞ (μ$_∞$)" if side == "low" else None)
     sigma = group["paper_sigma"]
-    ref_max = _paper_cell(paper, sigma, protocol=protocol.upper())
-    ref_min = _paper_cell(paper_min, sigma)
-    for value, label in ((ref_min, "phi_min"), (ref_max, "phi_max")):
+    ref_max = paper_row(paper, sigma, protocol=protocol.upper())
+    ref_min = paper_row(paper_min, sigma)
+    for value, label in ((None if ref_min is None else float(ref_min.phi_min), "phi_min"),
+                         (None if ref_max is None else float(ref_max.phi_max), "phi_max")):
         if value is not None:
             ax.plot([target**-0.5], [value], "*", color="tab:orange", ms=11, mec="k", mew=0.5,
                     label="paper (N = 10⁴)" if label == "phi_min" else None, gid=f"paper_{label}")
     ax.set_xlim(-0.002, grid[-1])
     ax.grid(alpha=0.3)
-
-
-def _paper_cell(frame, sigma: float, **match):
-    if not math.isfinite(sigma):
-        return None
-    sel = np.isclose(frame.sigma.values.astype(float), sigma)
-    for key, value in match.items():
-        sel &= frame[key].values == value
-    rows = frame[sel]
-    if not len(rows):
-        return None
-    return float(rows.iloc[0]["phi_max" if "protocol" in match else "phi_min"])
 
 
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6, "fig7": fig7,

@@ -119,7 +119,7 @@ def not_estimable(n: int, why: str = "") -> str:
     return f"not estimable (n = {n}{', ' + why if why else ''})"
 
 
-def _paper_row(frame: pd.DataFrame, sigma: float, **match) -> pd.Series | None:
+def paper_row(frame: pd.DataFrame, sigma: float, **match) -> pd.Series | None:
     sel = np.isclose(frame.sigma.values.astype(float), sigma)
     for key, value in match.items():
         sel &= frame[key].values == value
@@ -169,7 +169,7 @@ def table2(ds) -> pd.DataFrame:
                     row["status"] = not_estimable(fit.n_points, f"half-width {fit.half_width:.2g} > {max_half:g}")
                 else:
                     row.update(phi_gcp=fit.phi_gcp, half_width=fit.half_width)
-            ref = _paper_row(paper, group["paper_sigma"], method=label)
+            ref = paper_row(paper, group["paper_sigma"], method=label)
             row["paper_phi_gcp"] = float(ref.phi_GCP) if ref is not None else math.nan
             row["paper_half_width"] = float(ref.ci_half_width) if ref is not None else math.nan
             row["minus_paper"], row["minus_paper_in_half_widths"] = _compare(
@@ -208,8 +208,8 @@ def table3(ds) -> pd.DataFrame:
                 e.q_high, e.q_high_ci)
             ok = e.n >= int(bands["min_packings"])
             row[p + "status"] = "" if ok else not_estimable(e.n, f"fewer than {int(bands['min_packings'])} packings")
-            ref = _paper_row(paper, sigma, protocol=protocol.upper())
-            ref_min = _paper_row(paper_min, sigma)
+            ref = paper_row(paper, sigma, protocol=protocol.upper())
+            ref_min = paper_row(paper_min, sigma)
             for side, paper_value in (
                 ("low", float(ref_min.phi_min) if ref_min is not None else math.nan),  # protocol unknown
                 ("high", float(ref.phi_max) if ref is not None else math.nan),
@@ -576,12 +576,26 @@ def _fast_samples(df: pd.DataFrame, group: dict, protocol: str, limit: float) ->
 
 def fast_bands(ds) -> list[tuple[dict, dict[str, dict[int, np.ndarray]]]]:
     """Per distribution (the tables' rows, in order): its group and, per protocol, N -> the fast phi_J at that N
-    (the Table 3 band at each N)."""
+    (the Table 3 band at each N), for the N with at least ``bands.min_packings`` (and 2) fast packings."""
     cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
+    minimum = _min_scaling_packings(ds)
     df = _frame(ds)
     df["n"] = ds["n"].values
-    return [(g, {p: _fast_samples(df, g, p, cfg[f"{p}_max_inverse_rate"]) for p in ("ls", "fb")})
-            for g in _groups(df)]
+    out = []
+    for g in _groups(df):
+        by_protocol = {p: _fast_samples(df, g, p, cfg[f"{p}_max_inverse_rate"]) for p in ("ls", "fb")}
+        out.append((g, {p: {n: x for n, x in samples.items() if len(x) >= minimum}
+                        for p, samples in by_protocol.items()}))
+    return out
+
+
+def _min_scaling_packings(ds) -> int:
+    """Fast packings an N needs to enter the finite-size scaling: ``bands.min_packings``, and 2 for a width."""
+    return max(int(band_settings(ds)["min_packings"]), 2)
+
+
+def _named(bands) -> bool:
+    return any(not math.isfinite(g["sigma"]) for g, _ in bands)
 
 
 def table3_extrapolated(ds) -> pd.DataFrame:
@@ -589,20 +603,17 @@ def table3_extrapolated(ds) -> pd.DataFrame:
     min/max expected for the paper's sample sizes (85 LS, 165 FB packings) and the alpha-quantiles, each with its
     bootstrap confidence interval; the edge ``bands.method`` reports has half of that interval as its half-width.
     A band with packings at fewer than 2 N (at least ``bands.min_packings`` each) is not estimable."""
-    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
     bands = band_settings(ds)
     method, alpha, conf = bands["method"], float(bands["alpha"]), float(bands["confidence"])
-    minimum = max(int(bands["min_packings"]), 2)
+    minimum = _min_scaling_packings(ds)
     paper, paper_min = paper_reference.table3(), paper_reference.table3_min_unattributed()
-    df = _frame(ds)
-    df["n"] = ds["n"].values
-    named = _has_named(df)
+    groups = fast_bands(ds)
+    named = _named(groups)
     rows = {t: [] for t in EXTRAPOLATION_TARGETS}
-    for group in _groups(df):
+    for group, by_protocol in groups:
         cells = {t: _start(group, named) for t in EXTRAPOLATION_TARGETS}
         for protocol in ("ls", "fb"):
-            samples = _fast_samples(df, group, protocol, cfg[f"{protocol}_max_inverse_rate"])
-            usable = {n: x for n, x in samples.items() if len(x) >= minimum}
+            usable = by_protocol[protocol]
             size = paper_reference.FAST_SAMPLE_SIZES[protocol]
             p = f"{protocol}_"
             status = "" if len(usable) >= 2 else not_estimable(
@@ -612,8 +623,8 @@ def table3_extrapolated(ds) -> pd.DataFrame:
                                                      sample_size=size if m == "minmax" else None, alpha=alpha,
                                                      confidence=conf) if not status else None
                         for m in finite_size.METHODS}
-                ref = (_paper_row(paper_min, group["paper_sigma"]) if side == "low"
-                       else _paper_row(paper, group["paper_sigma"], protocol=protocol.upper()))
+                ref = (paper_row(paper_min, group["paper_sigma"]) if side == "low"
+                       else paper_row(paper, group["paper_sigma"], protocol=protocol.upper()))
                 paper_value = math.nan if ref is None else float(ref.phi_min if side == "low" else ref.phi_max)
                 for i, t in enumerate(EXTRAPOLATION_TARGETS):
                     row = cells[t]
@@ -641,18 +652,14 @@ def finite_size_table(ds) -> pd.DataFrame:
     """Per distribution, protocol and band edge of a ladder of N: the scaling fitted to every N (mu_inf, a, b of
     docs/finite_size.md) and its honest check, the edge at the largest N predicted from the smaller N alone against
     the one measured there, with the prediction interval (needs 3 N; else "not estimable")."""
-    cfg = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
     bands = band_settings(ds)
     method, alpha, conf = bands["method"], float(bands["alpha"]), float(bands["confidence"])
-    minimum = max(int(bands["min_packings"]), 2)
-    df = _frame(ds)
-    df["n"] = ds["n"].values
-    named = _has_named(df)
+    groups = fast_bands(ds)
+    named = _named(groups)
     rows = []
-    for group in _groups(df):
+    for group, by_protocol in groups:
         for protocol in ("ls", "fb"):
-            samples = _fast_samples(df, group, protocol, cfg[f"{protocol}_max_inverse_rate"])
-            usable = {n: x for n, x in samples.items() if len(x) >= minimum}
+            usable = by_protocol[protocol]
             base = {**_start(group, named), "protocol": protocol,
                     "n_values": " ".join(str(n) for n in sorted(usable)),
                     "packings": " ".join(str(len(usable[n])) for n in sorted(usable))}
