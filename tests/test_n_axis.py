@@ -232,6 +232,31 @@ def test_a_two_n_tiny_run_end_to_end(tmp_path):
     assert (results / "tables" / "finite_size.md").is_file()
     for ext in ("png", "pdf"):
         assert (results / "figures" / f"scaling.{ext}").stat().st_size > 1000
+    _check_a_run_in_parts_merges_to_the_whole(tmp_path / "c.yaml", results, ds)
+
+
+def _check_a_run_in_parts_merges_to_the_whole(configfile, results, whole):
+    """The same run in parts: each N's dataset from its own Snakemake target, merged by `spherejam merge`, is the
+    dataset of the run made in one go (values, coordinates, order), and its tables are the same."""
+    from spherejam.cli import main
+    from spherejam.workflow.dataset import open_dataset
+
+    parts = [results / "parts" / f"n{n}" / "sigma0" / "dataset.nc" for n in (40, 80)]
+    r = subprocess.run([sys.executable, "-m", "snakemake", *map(str, parts), "--cores", "2", "--configfile",
+                        str(configfile)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-5000:]
+    assert "rule mls" not in r.stdout + r.stderr  # the packings are made already: only the parts' datasets run
+    assert open_dataset(parts[0]).n.values.tolist() == [40] * 6
+    merged = results.parent / "merged"
+    assert main(["merge", str(parts[1]), str(parts[0]), "-o", str(merged / "dataset.nc")]) == 0
+    again = open_dataset(merged / "dataset.nc")
+    xr.testing.assert_equal(again, whole)
+    assert again.attrs["config_hash"] == whole.attrs["config_hash"] and "merged" in again.attrs["history"]
+    assert main(["tables", str(merged / "dataset.nc"), "--outdir", str(merged / "tables")]) == 0
+    for name in ("table2", "table3", "table4", "finite_size"):
+        assert (merged / "tables" / f"{name}.md").read_text() == (results / "tables" / f"{name}.md").read_text()
+    assert main(["merge", str(parts[0]), "-o", str(merged / "half.nc")]) == 2  # N = 80 is in no part
+    assert main(["merge", str(parts[0]), str(parts[0]), "-o", str(merged / "twice.nc")]) == 2
 
 
 def test_browse_selects_one_n(tmp_path, capsys):

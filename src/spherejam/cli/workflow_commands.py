@@ -18,7 +18,17 @@ def register(sub) -> None:
     p = sub.add_parser("dataset", help="assemble results/dataset.nc from an experiment manifest")
     p.add_argument("manifest", type=Path, help="experiment.json written by the workflow")
     p.add_argument("-o", "--output", type=output_file, required=True, help="output netCDF file")
+    p.add_argument("--n", type=int, nargs="+", metavar="N",
+                   help="only the packings at these N: the dataset of a part of the run, to merge later")
+    p.add_argument("--distribution", nargs="+", metavar="KEY",
+                   help="only the packings of these size distributions (keys as sigma0.3 or a name): a part")
     p.set_defaults(func=_dataset)
+
+    p = sub.add_parser("merge", help="join the datasets of a run's parts (spherejam dataset --n/--distribution) "
+                       "into the dataset of the whole run")
+    p.add_argument("parts", type=Path, nargs="+", help="the parts' dataset.nc files (together, every packing once)")
+    p.add_argument("-o", "--output", type=output_file, required=True, help="output netCDF file")
+    p.set_defaults(func=_merge)
 
     p = sub.add_parser("tables", help="write Tables 2-4 (CSV, Markdown, LaTeX) from a dataset")
     p.add_argument("dataset", type=Path)
@@ -92,10 +102,24 @@ def _dataset(args) -> int:
     from ..workflow.dataset import build_dataset, write_dataset
 
     check_outputs({"-o/--output": args.output}, inputs={"manifest": args.manifest})
-    ds = build_dataset(args.manifest)
+    ds = build_dataset(args.manifest, args.n, args.distribution)
     write_dataset(ds, args.output)
-    print(f"{args.output}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
+    _summary(args.output, ds)
+    return 0
+
+
+def _summary(path: Path, ds) -> None:
+    print(f"{path}: {ds.sizes.get('packing', 0)} packings, {ds.sizes.get('grid_run', 0)} grid runs, "
           f"{len(ds.data_vars)} variables")
+
+
+def _merge(args) -> int:
+    from ..workflow.dataset import merge_datasets, open_dataset, write_dataset
+
+    check_outputs({"-o/--output": args.output}, inputs={f"part {i + 1}": p for i, p in enumerate(args.parts)})
+    ds = merge_datasets([open_dataset(p) for p in args.parts], [str(p) for p in args.parts])
+    write_dataset(ds, args.output)
+    _summary(args.output, ds)
     return 0
 
 

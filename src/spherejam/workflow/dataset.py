@@ -34,7 +34,7 @@ from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
 from ..engines.result import RunStats, stats_from_metadata
 from .config import check_config
-from .experiment import Experiment, GridRun, Run, config_hash, shorthand_key
+from .experiment import Experiment, GridRun, Part, Run, config_hash, fmt, shorthand_key
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
 VARIABLES: dict[str, tuple[str, str]] = {
@@ -186,9 +186,9 @@ def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
     return {f"{prefix}{k}": _num(v) for k, v in flat.items() if isinstance(v, (int, float, bool)) or v is None}
 
 
-def collect_runs(exp: Experiment) -> tuple[list[Run], list[dict[str, float]]]:
+def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], list[dict[str, float]]]:
     rows = []
-    runs = exp.runs()
+    runs = exp.runs(part=part)
     for run in runs:
         row = _generation_scalars(exp.path(run, "initial"))
         row.update(_mls_scalars(exp.path(run, "jammed")))
@@ -200,9 +200,9 @@ def collect_runs(exp: Experiment) -> tuple[list[Run], list[dict[str, float]]]:
     return runs, rows
 
 
-def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]]:
+def collect_grid(exp: Experiment, part: Part | None = None) -> tuple[list[GridRun], list[dict[str, float]]]:
     rows = []
-    runs = exp.grid_runs()
+    runs = exp.grid_runs(part)
     for g in runs:
         row = _mls_scalars(exp.grid_path(g), prefix="grid_")
         row["grid_phi"] = _num(_attrs(exp.path(g.source, "initial")).get("phi"))
@@ -213,6 +213,7 @@ def collect_grid(exp: Experiment) -> tuple[list[GridRun], list[dict[str, float]]
 FORCE_BINS = np.geomspace(1e-4, 10.0, 41)  # f / <f>
 GAP_BINS = np.geomspace(1e-12, 1e-1, 45)  # h = r / D_ij - 1
 POOLED = "dist_distribution"  # the dimension of the pooled force and gap distributions: one per size distribution
+PACKING_DIM = "packing"
 
 
 def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -221,14 +222,15 @@ def _pdf(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return counts / max(len(values), 1) / np.diff(edges)
 
 
-def collect_distributions(exp: Experiment) -> dict[str, tuple]:
+def collect_distributions(exp: Experiment, part: Part | None = None) -> dict[str, tuple]:
     """Contact-force and gap distributions of the CALiPPSO-certified packings at the largest N, pooled per size
     distribution (a ``sigmas`` key or a named one; dimension ``dist_distribution``, with ``dist_sigma`` NaN for a
-    named one), with the small-argument power-law exponents fitted on the pooled samples."""
+    named one), with the small-argument power-law exponents fitted on the pooled samples; of a part, the
+    distributions it holds at the largest N (possibly none)."""
     from ..analysis.distributions import force_exponent, gap_exponent
     from ..core.packing_io import read_group
 
-    dists = exp.distributions
+    dists = [d for d in exp.distributions if part is None or (exp.largest_n, d.key) in part.cells]
     rows = {k: [] for k in ("force_pdf", "extended_force_pdf", "gap_pdf", "force_exponent", "gap_exponent",
                             "n_forces", "n_gaps")}
     for dist in dists:
@@ -319,8 +321,9 @@ def _structure_variables() -> dict[str, tuple[str, str]]:
     }
 
 
-def build_dataset(manifest_path: str | os.PathLike):
-    """Assemble the dataset of the experiment described by a manifest (see :func:`write_manifest`)."""
+def build_dataset(manifest_path: str | os.PathLike, sizes=None, dists=None):
+    """Assemble the dataset of the experiment described by a manifest (see :func:`write_manifest`); with ``sizes``
+    (N) or ``dists`` (distribution keys), the dataset of that part of it (:func:`merge_datasets` joins parts)."""
     import xarray as xr
 
     manifest_path = Path(manifest_path)
@@ -337,8 +340,9 @@ def build_dataset(manifest_path: str | os.PathLike):
     except InputError as exc:
         raise PackingFileError(f"{manifest_path}: config {exc}") from None
     exp = Experiment(config)
+    part = None if sizes is None and dists is None else exp.part(sizes, dists)
 
-    runs, rows = collect_runs(exp)
+    runs, rows = collect_runs(exp, part)
     names = sorted({k for r in rows for k in r})
     data_vars = {name: ("packing", np.array([r.get(name, math.nan) for r in rows], dtype=float)) for name in names}
     coords = {
@@ -352,7 +356,7 @@ def build_dataset(manifest_path: str | os.PathLike):
         "seed": ("packing", np.array([r.seed(exp.master_seed) for r in runs], dtype=np.int64)),
         "key": ("packing", np.array([r.key for r in runs], dtype=str)),
     }
-    grid_runs, grid_rows = collect_grid(exp)
+    grid_runs, grid_rows = collect_grid(exp, part)
     if grid_runs:
         gnames = sorted({k for r in grid_rows for k in r})
         data_vars.update(
@@ -369,9 +373,10 @@ def build_dataset(manifest_path: str | os.PathLike):
             final_rate=("grid_run", np.array([g.final_rate for g in grid_runs])),
         )
     if exp.config.get("calippso", {}).get("enabled", True):
-        dist = collect_distributions(exp)
-        coords.update(dist.pop("_coords"))
-        data_vars.update(dist)
+        dist = collect_distributions(exp, part)
+        if dist["n_forces"][1].size:  # a part without the largest N pools nothing
+            coords.update(dist.pop("_coords"))
+            data_vars.update(dist)
     ds = xr.Dataset(data_vars=data_vars, coords=coords)
     extra = {**_structure_variables(), **DISTRIBUTION_VARIABLES}
     _describe(ds, extra)
@@ -387,7 +392,95 @@ def build_dataset(manifest_path: str | os.PathLike):
         git_commit=prov["git_commit"],
         package_versions=dumps(prov["package_versions"]),
         created=prov["created"],
-        history=f"{prov['created']}: built by spherejam dataset from {manifest_path.name}",
+        history=f"{prov['created']}: built by spherejam dataset from {manifest_path.name}"
+        + ("" if part is None else f" (part: {part.label})"),
+    )
+    return ds
+
+
+GRID_DIM = "grid_run"
+GRID_ORDER = ("grid_n", "grid_sigma", "grid_rate", "grid_replica", "decrease_factor", "initial_rate", "final_rate")
+
+
+def _grid_label(values) -> tuple:
+    return tuple(int(v) if isinstance(v, (int, np.integer)) else fmt(float(v)) for v in values)
+
+
+#: The dimensions a part's dataset is merged along, and the other dimensions of each one's variables.
+_MERGED_DIMS = {PACKING_DIM: (), GRID_DIM: (), POOLED: ("force_bin", "gap_bin")}
+
+
+def _along(ds, dim: str):
+    """The variables and coordinates of ``ds`` over ``dim`` and its own other dimensions (None if ``ds`` has no
+    ``dim``)."""
+    if dim not in ds.dims:
+        return None
+    keep = {dim, *_MERGED_DIMS[dim]}
+    return ds.drop_dims([d for d in ds.dims if d not in keep])
+
+
+def merge_datasets(parts: list, names: list[str] | None = None):
+    """The dataset of a whole run from the datasets of its parts (``spherejam dataset --n/--distribution``), each
+    built from the same config: the same packings in the same order as :func:`build_dataset` of the whole run, so
+    that the tables and figures are those of a run made in one go. Raises :class:`PackingFileError` for parts of
+    different configs, a packing in two parts, or a cell of the experiment in no part."""
+    import xarray as xr
+
+    names = names or [f"part {i + 1}" for i in range(len(parts))]
+    if not parts:
+        raise InputError("merge: give the datasets of the parts")
+    first = parts[0]
+    for ds, name in zip(parts, names):
+        if ds.attrs.get("config_hash") != first.attrs.get("config_hash"):
+            raise PackingFileError(f"{name}: config_hash={ds.attrs.get('config_hash')}: a part of another experiment "
+                                   f"({names[0]} has {first.attrs.get('config_hash')})")
+    exp = Experiment(dataset_config(first))
+    seen: dict[str, str] = {}
+    for ds, name in zip(parts, names):
+        for key in ds["key"].values.tolist():
+            if key in seen:
+                raise PackingFileError(f"{name}: packing {key} is also in {seen[key]}")
+            seen[key] = name
+    expected: dict[tuple[int, str], list[str]] = {}
+    for run in exp.runs():
+        expected.setdefault((exp.size(run), run.dist), []).append(run.key)
+    order = [k for keys in expected.values() for k in keys]
+    stray = sorted(set(seen) - set(order))
+    if stray:
+        raise PackingFileError(f"{seen[stray[0]]}: packing {stray[0]} is not one of the experiment's")
+    missing = [f"n{n}/{d}" for (n, d), keys in expected.items() if any(k not in seen for k in keys)]
+    if missing:
+        raise PackingFileError(f"merge: no part holds {', '.join(missing)}: build its dataset too (spherejam "
+                               "dataset --n N --distribution KEY) and merge it")
+    merged = []
+    def concat(sets, dim):
+        return xr.concat(sets, dim=dim, data_vars="minimal", coords="minimal", compat="equals", join="outer")
+
+    packings = concat([_along(ds, PACKING_DIM) for ds in parts], PACKING_DIM)
+    position = {k: i for i, k in enumerate(packings["key"].values.tolist())}
+    merged.append(packings.isel({PACKING_DIM: [position[k] for k in order]}))
+    grids = [g for g in (_along(ds, GRID_DIM) for ds in parts) if g is not None]
+    if grids:
+        grid = concat(grids, GRID_DIM)
+        labels = [_grid_label(v) for v in zip(*(grid[c].values for c in GRID_ORDER))]
+        want = [_grid_label((exp.size(g.source), g.source.sigma, g.source.rate, g.source.replica, g.decrease_factor,
+                             g.initial_rate, g.final_rate)) for g in exp.grid_runs()]
+        merged.append(grid.isel({GRID_DIM: [labels.index(w) for w in want]}))
+    pooled = [d for d in (_along(ds, POOLED) for ds in parts) if d is not None]
+    if pooled:
+        dist = concat(pooled, POOLED)
+        keys = dist[POOLED].values.tolist()
+        merged.append(dist.isel({POOLED: [keys.index(d.key) for d in exp.distributions if d.key in keys]}))
+    ds = xr.merge(merged, combine_attrs="drop_conflicts", join="exact")
+    prov = provenance()
+    commits = sorted({str(p.attrs.get("git_commit")) for p in parts})
+    ds.attrs.update(
+        {k: first.attrs[k] for k in first.attrs if k not in ("git_commit", "created", "history", "package_versions")},
+        git_commit=commits[0] if len(commits) == 1 else ", ".join(commits),
+        package_versions=first.attrs.get("package_versions", ""),
+        created=prov["created"],
+        history="\n".join([*(str(p.attrs.get("history", "")) for p in parts),
+                            f"{prov['created']}: merged by spherejam merge from {len(parts)} parts"]),
     )
     return ds
 

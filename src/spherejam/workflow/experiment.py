@@ -274,6 +274,23 @@ class GridRun:
         return self.source.seed(master, f"grid-{ladder}")
 
 
+@dataclass(frozen=True)
+class Part:
+    """A part of an experiment, run and assembled apart (docs/cluster.md, "A run in parts"): its cells, each a
+    number of spheres N and a size-distribution key. A part's dataset holds the packings of its cells; the datasets
+    of parts that cover the experiment merge into the dataset of the whole run (:func:`spherejam.workflow.dataset.
+    merge_datasets`)."""
+
+    cells: frozenset[tuple[int, str]]
+
+    def holds(self, exp: Experiment, run: Run) -> bool:
+        return (exp.size(run), run.dist) in self.cells
+
+    @property
+    def label(self) -> str:
+        return ", ".join(f"n{n}/{d}" for n, d in sorted(self.cells))
+
+
 class Paths:
     """Every file of the workflow below one results folder, as text (what Snakemake takes). A ``key`` is a
     :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use, with an ``{n}``
@@ -325,6 +342,11 @@ class Paths:
     @property
     def dataset(self) -> str:
         return self._file("dataset.nc")
+
+    def dataset_part(self, n: int | str = "{n}", dist: str = "{dist}") -> str:
+        """The dataset of one cell of the experiment (its packings at one N of one distribution): a
+        :class:`Part` run on its own."""
+        return self._file("parts", f"n{n}", str(dist), "dataset.nc")
 
     def table(self, name: str, ext: str) -> str:
         return self._file("tables", f"{name}.{ext}")
@@ -458,11 +480,12 @@ class Experiment:
         """N of a job, from its wildcards (a Snakemake ``params`` or resources function)."""
         return self.size(Run.from_wildcards(wildcards))
 
-    def runs(self, protocol: str | None = None, n: int | None = None) -> list[Run]:
-        """The packings of the experiment (of one protocol, and of one N of a ladder, if given), N outermost."""
+    def runs(self, protocol: str | None = None, n: int | None = None, part: Part | None = None) -> list[Run]:
+        """The packings of the experiment (of one protocol, of one N of a ladder and of one part, if given), N
+        outermost."""
         protocols = PROTOCOLS if protocol is None else (protocol,)
         sizes = [None] if not self.n_ladder else self.sizes if n is None else [n]
-        return [
+        runs = [
             Run(p, d.key, r, k, size)
             for size in sizes
             for p in protocols
@@ -470,6 +493,24 @@ class Experiment:
             for r in self.rates_for(p, d.key, size)
             for k in range(self.replicas)
         ]
+        return runs if part is None else [r for r in runs if part.holds(self, r)]
+
+    @property
+    def cells(self) -> list[tuple[int, str]]:
+        """Every (N, distribution key) of the experiment, in the order of its packings."""
+        return [(n, d.key) for n in self.sizes for d in self.distributions]
+
+    def part(self, sizes=None, dists=None) -> Part:
+        """The part of the experiment with the N in ``sizes`` and the distribution keys in ``dists`` (None: all);
+        an N or key the experiment does not have is an :class:`InputError` naming it."""
+        for name, given, known in (("n", sizes, self.sizes), ("distribution", dists,
+                                                              [d.key for d in self.distributions])):
+            unknown = [x for x in (given or ()) if x not in known]
+            if unknown:
+                raise InputError(f"{name}={unknown[0]}: not in the experiment (one of "
+                                 f"{', '.join(map(str, known))})")
+        return Part(frozenset((n, d) for n, d in self.cells
+                              if (sizes is None or n in sizes) and (dists is None or d in dists)))
 
     @property
     def several_n(self) -> bool:
@@ -514,11 +555,13 @@ class Experiment:
         editing the file reruns what depends on it."""
         return self.distribution(str(wildcards.dist)).files
 
-    def grid_runs(self) -> list[GridRun]:
+    def grid_runs(self, part: Part | None = None) -> list[GridRun]:
         """The validation-grid runs (re-jamming LS packings of the experiment; with a ladder, those at its largest
-        N)."""
+        N), of one part if given."""
         if not self.grid_enabled:
             return []
+        if part is not None:
+            return [g for g in self.grid_runs() if part.holds(self, g.source)]
         g = self.grid
         # the experiment's own rate values (equal to the grid's under fmt), so grid runs match their packing exactly
         canonical = {float(s): {fmt(x): x for x in self.rates_for("ls", float(s))} for s in g["sigmas"]}
@@ -587,17 +630,17 @@ class Experiment:
     def grid_path(self, grid_run: GridRun) -> Path:
         return Path(self.paths.grid(grid_run.key))
 
-    def dataset_inputs(self) -> list[str]:
+    def dataset_inputs(self, part: Part | None = None) -> list[str]:
         """Every file the dataset builder (:func:`spherejam.workflow.dataset.build_dataset`) reads besides the
         manifest: per packing its LS/FB and MLS outputs, its structure analysis (if enabled), CALiPPSO's summary and
-        packing (if enabled); and every validation-grid output."""
+        packing (if enabled); and every validation-grid output (of one part, if given)."""
         stages = ["initial", "jammed"]
         if self.config.get("analysis", {}).get("enabled", True):  # the schema's defaults
             stages.append("structure")
         if self.config.get("calippso", {}).get("enabled", True):
             stages += ["calippso", "calippso_packing"]
-        files = [self.paths.packing(stage, run.key) for run in self.runs() for stage in stages]
-        return files + [self.paths.grid(g.key) for g in self.grid_runs()]
+        files = [self.paths.packing(stage, run.key) for run in self.runs(part=part) for stage in stages]
+        return files + [self.paths.grid(g.key) for g in self.grid_runs(part)]
 
 
 def mls_command(initial_rate: str, decrease_factor: str, final_rate: str) -> str:
