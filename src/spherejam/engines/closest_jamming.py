@@ -35,6 +35,7 @@ import numpy as np
 
 from ..core.errors import require
 from ..core.packing import Packing
+from ..core.rate_ladder import final_stage, stage_rate
 from ..core.validation import check_mls
 from .driver import RunOptions
 from .lubachevsky_stillinger import (
@@ -84,9 +85,7 @@ class MLSController(Controller):
         self.initial_rate = float(initial_rate)
         self.decrease_factor = float(decrease_factor)
         self.final_rate = float(final_rate)
-        self.final_stage = 0  # the first k with gamma_0 / f^k <= the final rate, as after_window computes the rates
-        while self.initial_rate / self.decrease_factor**self.final_stage > self.final_rate:
-            self.final_stage += 1
+        self.final_stage = final_stage(self.initial_rate, self.decrease_factor, self.final_rate)
         self.max_equilibration_windows = int(max_equilibration_windows)
         self.stall_windows = 0 if stall_windows is None else int(stall_windows)  # 0: rule off
 
@@ -116,8 +115,7 @@ class MLSController(Controller):
             s.equilibration_windows += 1
             if p < self.p_max:
                 s.restarts += 1
-                # gamma_0 / f^k, not a running product, so no round-off accumulates
-                s.rate = self.initial_rate / self.decrease_factor**s.restarts
+                s.rate = stage_rate(self.initial_rate, self.decrease_factor, s.restarts)
                 s.stage += 1
             else:
                 s.equilibration_count += 1

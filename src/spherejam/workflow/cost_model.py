@@ -47,6 +47,7 @@ import os
 from dataclasses import dataclass
 
 from ..core.errors import InputError, require
+from ..core.rate_ladder import ladder_rates
 
 #: Stages (rule kinds) with a cost model.
 STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
@@ -126,15 +127,13 @@ def ls_collisions_per_particle(rate: float) -> float:
 
 
 def mls_rates(initial_rate: float = 10.0, decrease_factor: float = 2.0, final_rate: float = 1e-4) -> list[float]:
-    """The MLS rate ladder gamma_0 / f^k, k = 0, 1, ..., ending with the first rate <= gamma_final."""
+    """The MLS rate ladder gamma_0 / f^k, k = 0, 1, ..., ending with the first rate <= gamma_final (checked
+    arguments; :func:`spherejam.core.rate_ladder.ladder_rates`)."""
     g0 = _positive("initial_rate", initial_rate)
     f = _positive("decrease_factor", decrease_factor)
     gf = _positive("final_rate", final_rate)
     require(f > 1.0, "decrease_factor", decrease_factor, "must be > 1")
-    rates = [g0]
-    while rates[-1] > gf:
-        rates.append(g0 / f ** len(rates))
-    return rates
+    return ladder_rates(g0, f, gf)
 
 
 def mls_collisions_per_particle(initial_rate: float = 10.0, decrease_factor: float = 2.0,
