@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from spherejam.core.errors import InputError
+from spherejam.core.rate_ladder import final_stage, ladder_rates, last_rate_floor, stage_rate
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import MLSController, find_closest_jamming
 from spherejam.engines.lubachevsky_stillinger import WindowStats, run_ls
@@ -273,6 +274,20 @@ def test_stall_rule_state_round_trips_and_old_checkpoints_load():
     fresh = MLSController(10.0, 2.0, 1e-4, 1e12, 50, stall_windows=10)
     fresh.restore(old)  # a checkpoint from before the rule: the count starts afresh
     assert fresh.state.stall_count == 0 and fresh.state.stall_reference == 0.0 and fresh.rate == c.rate
+
+
+def test_rate_ladder_is_gamma0_over_f_to_the_k_and_the_engine_compresses_at_it():
+    """One ladder (core/rate_ladder.py) for the engine, the cost model and the config check."""
+    assert ladder_rates(10.0, 2.0, 1e-4) == [10.0 / 2.0**k for k in range(18)]  # the paper's: 10 ... 10 / 2^17
+    assert final_stage(10.0, 2.0, 1e-4) == 17 and ladder_rates(1e-4, 2.0, 1e-4) == [1e-4]
+    assert stage_rate(3.3, 1.5, 7) == 3.3 / 1.5**7  # from gamma_0 each time, bitwise, not a running product
+    rates = ladder_rates(3.3, 1.5, 1e-3)
+    assert rates[-2] > 1e-3 >= rates[-1] > last_rate_floor(1.5, 1e-3)
+    # the search jams at every rate, unjams when equilibrated, and stops at the ladder's last rate
+    c = MLSController(3.3, 1.5, 1e-3, 1e12, 50)
+    reason, trace = _feed(c, [2e12, 1.0] * len(rates))
+    assert reason == "final_rate" and c.final_stage == len(rates) - 1
+    assert [3.3] + [rate for rate, _ in trace[:-1] if rate > 0] == rates  # the last window keeps its rate
 
 
 def test_cli_mls_stall_flags(tmp_path):

@@ -140,8 +140,8 @@ def phi_rcp_distribution(distribution, n_diameters: int = 4000, n_chords: int = 
 
     A line hits spheres in proportion to n(D) D^2, so ``n_diameters`` quantiles of that hit-weighted distribution
     (taken over the distribution's representative points, :meth:`SizeDistribution.support`) are each cut into
-    ``n_chords`` quantile chords and packed. A log-normal goes through :func:`phi_rcp_lognormal` (the same numbers as
-    before this function existed)."""
+    ``n_chords`` quantile chords and packed. A log-normal goes through :func:`phi_rcp_lognormal`, so both functions
+    give it the same phi_RCP."""
     from ..core.size_distribution import LogNormal, parse
 
     dist = parse(distribution)

@@ -1,2 +1,2 @@
 """The packing and what every stage shares: the packing and its files, checkpoints, the cell list, seeding,
-config limits, errors, provenance and progress output."""
+config limits, the MLS rate ladder, errors, provenance and progress output."""

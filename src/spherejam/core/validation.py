@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import InputError
+from .rate_ladder import last_rate_floor
 
 #: Largest N: 10^7 spheres take ~1 GB in the engines' arrays; the paper uses 10^4.
 N_MAX = 10_000_000
@@ -165,6 +166,7 @@ def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
     g0, f, gf = names
     if final_rate > initial_rate:
         raise InputError(f"{gf}={final_rate!r}: must be <= {g0} ({initial_rate!r})")
-    if final_rate / decrease_factor < LS_RATE_MIN:
+    floor = last_rate_floor(decrease_factor, final_rate)
+    if floor < LS_RATE_MIN:
         raise InputError(f"{f}={decrease_factor!r}: with {gf} {final_rate!r} the last stage may run at gamma = "
-                         f"{final_rate / decrease_factor:.3g} < {LS_RATE_MIN:g}, which never jams")
+                         f"{floor:.3g} < {LS_RATE_MIN:g}, which never jams")

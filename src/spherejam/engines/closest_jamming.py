@@ -11,14 +11,12 @@ Maxwell–Boltzmann velocities at T = 0.2:
 4. stop at the first window with p >= p_max while compressing at a rate <= the final rate (1e-4).
 
 One rule is ours, not the paper's: a compression whose pressure has stalled counts as having reached p_max. In the
-slow stages near p_max = 1e12 the growth of the diameters during one window (gamma * dt ~ 1e-15 - 4e-15 at gamma <=
-6e-4) is at or below the spacing of double-precision coordinates (3.6e-15 for |x| in [16, 32), i.e. a box of 10^4
-spheres), so it is absorbed as round-off overlaps, which the collision rule resolves, and the pressure stops rising
-below p_max (measured at N = 10^4: stages flat at p = 1.3e11 - 7.2e11 for > 1000 windows, with phi growing by
-<= 2.4e-11; normal stages never go more than ~60 windows without a 10 % change). So if, while compressing,
-p >= ``STALL_PRESSURE_FRACTION`` * p_max and p has stayed within a factor ``STALL_BAND`` for ``stall_windows``
-windows in a row, the stage ends as if p_max were reached (counted in ``stalled_stages``; at the final rate the stop
-reason is "final_rate_stalled").
+slow stages near p_max = 1e12 of a box of >= 10^4 spheres, the growth of the diameters during one window is at or
+below the spacing of double-precision coordinates, so it is absorbed as round-off overlaps, which the collision rule
+resolves, and the pressure stops rising below p_max (the measurements: docs/cluster.md, 'Pressure floor at
+N = 10⁴'). So if, while compressing, p >= ``STALL_PRESSURE_FRACTION`` * p_max and p has stayed within a factor
+``STALL_BAND`` for ``stall_windows`` windows in a row, the stage ends as if p_max were reached (counted in
+``stalled_stages``; at the final rate the stop reason is "final_rate_stalled").
 
 The closest jamming density phi_J is the packing fraction when the loop stops. Fast compressions at the start keep
 the configuration in its initial basin; slow ones at the end make the high pressure a sign of true jamming.
@@ -35,6 +33,7 @@ import numpy as np
 
 from ..core.errors import require
 from ..core.packing import Packing
+from ..core.rate_ladder import final_stage, stage_rate
 from ..core.validation import check_mls
 from .driver import RunOptions
 from .lubachevsky_stillinger import (
@@ -53,7 +52,7 @@ CHECKPOINT_KIND_MLS = "mls"
 STALL_PRESSURE_FRACTION = 0.1
 #: p "has not changed" while it stays within this factor of its value when the count started.
 STALL_BAND = 1.1
-#: Default ``stall_windows``: ~17x the longest flat stretch of a normal N = 10^4 stage, ~1/3 of a measured stall.
+#: Default ``stall_windows``: far longer than a normal stage stays flat, shorter than a stall (docs/cluster.md).
 DEFAULT_STALL_WINDOWS = 1000
 
 
@@ -84,9 +83,7 @@ class MLSController(Controller):
         self.initial_rate = float(initial_rate)
         self.decrease_factor = float(decrease_factor)
         self.final_rate = float(final_rate)
-        self.final_stage = 0  # the first k with gamma_0 / f^k <= the final rate, as after_window computes the rates
-        while self.initial_rate / self.decrease_factor**self.final_stage > self.final_rate:
-            self.final_stage += 1
+        self.final_stage = final_stage(self.initial_rate, self.decrease_factor, self.final_rate)
         self.max_equilibration_windows = int(max_equilibration_windows)
         self.stall_windows = 0 if stall_windows is None else int(stall_windows)  # 0: rule off
 
@@ -116,8 +113,7 @@ class MLSController(Controller):
             s.equilibration_windows += 1
             if p < self.p_max:
                 s.restarts += 1
-                # gamma_0 / f^k, not a running product, so no round-off accumulates
-                s.rate = self.initial_rate / self.decrease_factor**s.restarts
+                s.rate = stage_rate(self.initial_rate, self.decrease_factor, s.restarts)
                 s.stage += 1
             else:
                 s.equilibration_count += 1

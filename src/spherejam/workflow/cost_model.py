@@ -5,32 +5,19 @@ these functions must stay cheap and import nothing heavy (no numpy, no numba): S
 job when it builds the DAG. The stages are the rules' names; ``spherejam cost CONFIG`` prints a whole config's
 jobs and hours per stage (:func:`plan`).
 
-Cost model (expected CPU seconds of one job = start-up + work / speed), calibrated on one core of the 2-core
-development machine (AMD EPYC VM; figures in docs/cluster.md):
+The expected CPU seconds of one job are start-up plus work / speed, per stage (the constants below; their
+calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 
-* LS, collisions per particle from a Poisson start to p = 1e12 at compression rate gamma (the paper's gamma):
-  ``300 + 2500 (1e-2 / gamma)^0.92``. Measured (N = 1000, sigma = 0): 523 / 2533 / 20177 at gamma = 1e-1 / 1e-2 /
-  1e-3 (the reference C++ code: 495 / 2367 / 18525); the number per particle hardly depends on N.
-* Event-driven speed (LS and MLS): ``9.5e5 (N / 1000)^-0.05`` collisions per CPU second. Measured with the
-  engine of issue 3 (the other core busy): MLS 0.91-0.97e6/s at N = 1000 and 0.92-0.95e6/s at N = 10^4, LS
-  1.6e6 / 1.15e6 / 0.72e6 at N = 10^3 / 10^4 / 10^5 (the reference code: 2.8e5 and 2.2e5 at N = 10^3 / 10^4).
-* MLS (gamma_0 -> gamma_final, decrease factor f): one LS-like compression per rate gamma_k = gamma_0 / f^k, down to
-  the first rate <= gamma_final. The sum of the LS costs of all those rates over-estimates what a search needs at
-  N = 1000, because a phase ends early when the packing is still jammed: half the sum is used (2.4e5 collisions per
-  particle for the paper's ladder; measured 1.3-3.95e5 in seven N = 1000 searches, the reference code 7.1e4 / 1.2e5
-  at N = 500 / 1000 from gamma_0 = 1e-2). Per particle the cost grows with N, because a larger packing unjams more
-  often in the slow stages: ``(N / 1000)^MLS_SIZE_EXPONENT`` on top, fitted to the five N = 10^4 searches of the
-  band check (6.0-16.0e9 collisions, mean 10.8e9, from fast LS starts, ``benchmarks/mls_science.py``).
-* FB: ``30 + 0.13 / gamma`` iterations at ``3.5e-7 N`` seconds each (measured at N = 10^4: 125 / 1077 / 12186
-  iterations in 0.9 / 3.2 / 41 s at gamma = 1e-3 / 1e-4 / 1e-5).
-* CALiPPSO: ``CALIPPSO_ITERATIONS`` LPs per certification (their mean: 62 over 26 certifications of N = 1000
-  MLS outputs in the reproduction run, median 8, the longest 436, because some outputs creep by ~1e-8 in sqrt(Gamma)
-  per LP) of ``0.79 s (N / 1024)^2.23`` each on average: 46 CPU-s per certification at N = 1000 (measured: mean 46,
-  median 15, n = 23, warm-started simplex below N = 4096), and ~128 s per LP at N = 10^4 (five LPs of a tiled
-  N = 1250 MLS output: HiPO with a certified vertex 56-77 s, one fallback to HiPO + crossover 259 s, the force LP
-  176 s; docs/cluster.md). The old path (IPX + crossover) took 1.5 s / 35-64 s / 28 min per LP at N = 1024 / 4096 /
-  10^4.
-* seed and analyze: seconds at N = 10^4 (start-up dominates).
+* LS: ``LS_BASE + LS_AT_1E2 (1e-2 / gamma)^LS_EXPONENT`` collisions per particle from a Poisson start to
+  p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS).
+* MLS: the LS collisions of every rate of its ladder (:mod:`spherejam.core.rate_ladder`), times
+  ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
+  (a larger packing unjams more often in the slow stages).
+* FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
+* CALiPPSO: ``CALIPPSO_ITERATIONS`` LPs of ``CALIPPSO_LP_SECONDS (N / 1024)^CALIPPSO_EXPONENT`` seconds each.
+* seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
+
+Both size factors count an N below 1000 as 1000.
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
 [floor, ceiling], and multiplied by the attempt number: a job killed at its limit is submitted again by Snakemake
@@ -47,6 +34,7 @@ import os
 from dataclasses import dataclass
 
 from ..core.errors import InputError, require
+from ..core.rate_ladder import ladder_rates
 
 #: Stages (rule kinds) with a cost model.
 STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
@@ -58,7 +46,7 @@ LS_EXPONENT = 0.92
 #: Event-driven collisions per CPU second at N = 1000, and its decrease with N (cache misses).
 COLLISIONS_PER_SECOND = 9.5e5
 SPEED_EXPONENT = -0.05
-#: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (see the module docstring).
+#: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (docs/cluster.md, 'Cost model').
 MLS_PHASE_FRACTION = 0.5
 #: Growth of the MLS collisions per particle with N above 1000: (N / 1000)^MLS_SIZE_EXPONENT.
 MLS_SIZE_EXPONENT = 0.66
@@ -126,15 +114,13 @@ def ls_collisions_per_particle(rate: float) -> float:
 
 
 def mls_rates(initial_rate: float = 10.0, decrease_factor: float = 2.0, final_rate: float = 1e-4) -> list[float]:
-    """The MLS rate ladder gamma_0 / f^k, k = 0, 1, ..., ending with the first rate <= gamma_final."""
+    """The MLS rate ladder gamma_0 / f^k, k = 0, 1, ..., ending with the first rate <= gamma_final (checked
+    arguments; :func:`spherejam.core.rate_ladder.ladder_rates`)."""
     g0 = _positive("initial_rate", initial_rate)
     f = _positive("decrease_factor", decrease_factor)
     gf = _positive("final_rate", final_rate)
     require(f > 1.0, "decrease_factor", decrease_factor, "must be > 1")
-    rates = [g0]
-    while rates[-1] > gf:
-        rates.append(g0 / f ** len(rates))
-    return rates
+    return ladder_rates(g0, f, gf)
 
 
 def mls_collisions_per_particle(initial_rate: float = 10.0, decrease_factor: float = 2.0,
@@ -322,7 +308,7 @@ def print_plan(config: dict) -> None:
 
 def load_configs(*paths) -> dict:
     """Config files merged as Snakemake merges several ``--configfile`` arguments: later files override earlier
-    ones key by key, recursively into nested mappings. (The workflow no longer merges a ``--configfile`` over
+    ones key by key, recursively into nested mappings. (The workflow itself merges no ``--configfile`` over
     config/config.yaml: one file is the whole experiment.)"""
     from .config import load_config_file
 
