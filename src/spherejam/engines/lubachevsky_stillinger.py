@@ -26,8 +26,7 @@ from ..core.errors import InputError, SimulationError, require
 from ..core.history import History
 from ..core.neighbours import closest_pair
 from ..core.packing import Packing, ball_volume
-from ..core.progress import log_fraction
-from ..core.progress import rate as rate_of
+from ..core.progress import log_fraction, per_second
 from ..core.validation import EVENTS_PER_PARTICLE
 from .driver import RunOptions, Stepper, drive
 from .event_driven import AUDIT_TOLERANCE, DEFAULT_TEMPERATURE, ListOptions, LSEngine, WindowStats, restore_state
@@ -151,7 +150,7 @@ class WindowRun(Stepper):
             f"collisions={collisions:,} ({collisions / max(wall_time, 1e-9):,.0f}/s)"
             + (f" stop={stop}" if stop else ""),
             fields={**self.controller.progress_fields(), "p": p, "φ": phi,
-                    "collisions/s": rate_of(collisions, wall_time)},
+                    "collisions/s": per_second(collisions, wall_time)},
             bar=(log_fraction(p, self.controller.p_max), "log p/log p_max"),
         )
 
