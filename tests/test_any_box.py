@@ -14,8 +14,9 @@ from spherejam.core.neighbours import pair_images
 from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming
+from spherejam.engines.event_driven import LSEngine
 from spherejam.engines.force_biased import run_fb
-from spherejam.engines.lubachevsky_stillinger import LSEngine, maxwell_velocities, run_ls
+from spherejam.engines.lubachevsky_stillinger import maxwell_velocities, run_ls
 
 QUIET = {"progress_interval": 1e9}
 

@@ -15,7 +15,8 @@ from spherejam.core.errors import InputError
 from spherejam.core.rate_ladder import final_stage, ladder_rates, last_rate_floor, stage_rate
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import MLSController, find_closest_jamming
-from spherejam.engines.lubachevsky_stillinger import WindowStats, run_ls
+from spherejam.engines.event_driven import WindowStats
+from spherejam.engines.lubachevsky_stillinger import run_ls
 from spherejam.engines.result import LSCounts, stats_from_metadata
 
 NO_EVENTS = LSCounts(events=0, skin_events=0, moves=0, null_collisions=0, list_rebuilds=0)

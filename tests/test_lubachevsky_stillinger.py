@@ -8,8 +8,9 @@ import pytest
 from spherejam.core.errors import InputError
 from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
+from spherejam.engines.event_driven import LSEngine
 from spherejam.engines.kernels import event_driven as ed
-from spherejam.engines.lubachevsky_stillinger import LSEngine, maxwell_velocities, run_ls
+from spherejam.engines.lubachevsky_stillinger import maxwell_velocities, run_ls
 
 T = 0.2
 

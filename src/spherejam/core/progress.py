@@ -129,8 +129,8 @@ def log_fraction(p: float, p_max: float) -> float:
     return math.log(p) / math.log(p_max)
 
 
-def rate(count: float, seconds: float) -> float:
-    """``count`` per second, 0 before any time has passed."""
+def per_second(count: float, seconds: float) -> float:
+    """``count`` per second of wall time (a throughput, not a compression rate), 0 before any time has passed."""
     return count / seconds if seconds > 0 else 0.0
 
 

@@ -36,15 +36,9 @@ from ..core.packing import Packing
 from ..core.rate_ladder import final_stage, stage_rate
 from ..core.validation import check_mls
 from .driver import RunOptions
-from .lubachevsky_stillinger import (
-    DEFAULT_TEMPERATURE,
-    Controller,
-    RateState,
-    WindowStats,
-    _finite,
-    run_windows,
-    validate_ls_options,
-)
+from .event_driven import DEFAULT_TEMPERATURE, WindowStats
+from .lubachevsky_stillinger import _finite, run_windows, validate_ls_options
+from .rate_controller import Controller, RateState
 from .result import LSCounts, MLSCounts, RunResult
 
 CHECKPOINT_KIND_MLS = "mls"

@@ -40,7 +40,7 @@ from ..core.checkpoint import fingerprint
 from ..core.errors import SimulationError, require
 from ..core.history import History
 from ..core.packing import Packing, ball_volume
-from ..core.progress import rate as per_second
+from ..core.progress import per_second
 from .driver import RunOptions, Stepper, drive
 from .kernels import force_biased as kernels
 from .result import FBCounts, RunResult, RunStats

@@ -1,8 +1,9 @@
 """Event-driven machinery for hard spheres with linearly growing diameters in a periodic cube (d = 3).
 
-This is the inner engine of the Lubachevsky–Stillinger protocol (:mod:`spherejam.engines.lubachevsky_stillinger`); the
-protocol itself (windows, pressure, thermostat, stopping, checkpoints) lives there. All functions are numba
-``njit(cache=True)`` kernels over plain arrays.
+This is the inner engine of the Lubachevsky–Stillinger protocol: the windows (pressure, thermostat, audit) live in
+:mod:`spherejam.engines.event_driven`, the run (stopping, checkpoints) in
+:mod:`spherejam.engines.lubachevsky_stillinger`. All functions are numba ``njit(cache=True)`` kernels over plain
+arrays.
 
 State (one :class:`EventState`; particles as a structure of arrays, one cache line per particle)
     ``st[i] = (x, y, z, vx, vy, vz, t_i, D_i)``: position at the particle's own last-update time ``t_i``
