@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -254,7 +256,7 @@ def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
     s, inflation, movers = stuck["s"], stuck["inflation"], stuck["rattlers"]
     rattler = rattler.copy()
     rattler[movers] = False
-    slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+    slack = _slack(rij, sigma2, pi, pj, s, inflation)
     keys = []
     all_keys = pair_keys(pi, pj, n)
     taken = np.zeros(len(pi), dtype=bool)
@@ -272,12 +274,61 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
                   feasibility, max_pivots, rattler_s, fixed, why, stuck):
     """One attempt of :func:`solve_active_set`; when only the rattlers' placement fails, ``stuck`` receives the
     vertex (``s``, ``inflation``) and the rattlers still in violated rows (``rattlers``)."""
+    t0 = time.perf_counter()
+    try:
+        system = _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
+                                 fixed)
+        u, lam, pivots, relaxed, bound_pivots = _pivot(system, feasibility, 10 if max_pivots is None else max_pivots)
+        _check_held_components(system, lam)
+        inflation = max(float(u[-1]), inflation_bounds[0])
+        s = _vertex_displacements(system, u, rattler_s, s_bound, pinned)
+        contact_rows = system.stable_rows[system.basis[system.basis < system.m_pair]]
+        active = np.zeros(len(pi), dtype=bool)
+        active[contact_rows] = True
+        slack = _settle_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, active, s_bound, feasibility, stuck)
+    except _NoVertex as failure:
+        return _fail(why, str(failure))
+    if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
+        return _fail(why, "a row or an s bound is violated at the vertex")
+    duals = np.zeros(len(pi))
+    duals[contact_rows] = np.maximum(lam[system.basis < system.m_pair], 0.0)
+    method = f"active-set+{pivots}" + (f"+{relaxed}relaxed" if relaxed else "") + (
+        f"+{bound_pivots}bounds" if bound_pivots else "")
+    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method)
+
+
+class _NoVertex(Exception):
+    """Why an active-set attempt gives up (its message goes to the caller's ``why``)."""
+
+
+@dataclass
+class _ContactSystem:
+    """A predicted vertex as a linear system: every constraint of the LP among stable particles as a row a . u <= b
+    in the unknowns u (the free s components, then Gamma), the ``m_pair`` pair rows first, then the bounds of the
+    unknowns; the rows of the predicted contacts are the initial ``basis``."""
+
+    a: Any  # (rows, nu) scipy CSR
+    rhs: np.ndarray
+    m_pair: int
+    basis: np.ndarray  # rows of a, one per unknown: replaced in place by the pivots
+    stable_rows: np.ndarray  # the LP's rows among stable particles, in the order of a's pair rows
+    free_comp: np.ndarray  # (N d,) the s components that are unknowns
+    fixed: np.ndarray  # (N, d) -1 / 0 / +1: components held at their lower / upper bound
+    # the pair rows' entries (constraint_rows) over all N d + 1 columns, their row, and those on a held component
+    index: np.ndarray
+    value: np.ndarray
+    row_id: np.ndarray
+    held: np.ndarray
+
+
+def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
+                    fixed) -> _ContactSystem:
+    """The predicted vertex's linear system; raises :class:`_NoVertex` when the prediction is no square system."""
     from scipy.sparse import csr_matrix
 
-    t0 = time.perf_counter()
     dim = rij.shape[1]
     if rattler[pinned]:
-        return _fail(why, "the pinned particle is predicted a rattler")
+        raise _NoVertex("the pinned particle is predicted a rattler")
     free = ~rattler
     free[pinned] = False
     fixed = np.zeros((n, dim), dtype=np.int8) if fixed is None else np.where(free[:, None], fixed, 0).astype(np.int8)
@@ -288,7 +339,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
     nu = int(np.count_nonzero(free_comp)) + 1
     col_of[-1] = nu - 1
     if contact_keys.size != nu:  # not isostatic: no square system
-        return _fail(why, f"{contact_keys.size} predicted contacts for {nu} unknowns")
+        raise _NoVertex(f"{contact_keys.size} predicted contacts for {nu} unknowns")
     # the rows among stable particles, in the reduced columns (pinned particle and fixed components dropped)
     stable_rows = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     start, index, value, rhs = constraint_rows(rij[stable_rows], sigma2[stable_rows], pi[stable_rows],
@@ -302,20 +353,26 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         rhs = rhs - np.bincount(row_id[held], weights=value[held] * s_fixed[index][held], minlength=rhs.size)
     # the bounds of the unknowns as rows too (s_c <= s_bound, -s_c <= s_bound, Gamma within its bounds, after the
     # pair rows), so that a bound a pivot runs into enters the basis like a contact (docs §5.4)
-    m_pair = stable_rows.size
-    a_all, rhs = _with_bound_rows(a_all, rhs, nu, s_bound, inflation_bounds)
+    a_all, rhs_all = _with_bound_rows(a_all, rhs, nu, s_bound, inflation_bounds)
     key = pair_keys(pi, pj, n)[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
     if basis.size != nu:  # a predicted contact left the cutoff or involves a particle that is now a rattler
-        return _fail(why, f"{nu - basis.size} predicted contacts are not rows among stable particles")
-    if max_pivots is None:
-        max_pivots = 10
-    e_inflation = np.zeros(nu)
+        raise _NoVertex(f"{nu - basis.size} predicted contacts are not rows among stable particles")
+    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, free_comp, fixed, index, value, row_id,
+                          held)
+
+
+def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
+    """Pivot from the predicted vertex to a certified optimal one (the composite primal-dual simplex of
+    :func:`solve_active_set`, docs §5.4). Returns ``(u, lambda, pivots, rows relaxed, bound rows entered)``; raises
+    :class:`_NoVertex` when that fails."""
+    a_all, rhs, basis = system.a, system.rhs, system.basis
+    e_inflation = np.zeros(basis.size)
     e_inflation[-1] = 1.0
     try:
         binv = BasisInverse(a_all, basis)
     except RuntimeError:
-        return _fail(why, "singular contact system")
+        raise _NoVertex("singular contact system") from None
     # rows violated while duals are negative too: their right-hand side is relaxed so that the vertex is feasible,
     # primal pivots optimise that relaxed LP, then the relaxation is removed and dual pivots (the duals are >= 0 by
     # then) restore those rows (a composite primal-dual simplex, docs §5.4)
@@ -326,7 +383,7 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         u = binv.solve(b[basis])
         lam = binv.solve_transposed(e_inflation)
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(lam))):
-            return _fail(why, f"non-finite solution after {pivot} pivots")
+            raise _NoVertex(f"non-finite solution after {pivot} pivots")
         slack = b - a_all @ u
         slack[basis] = 0.0
         r = int(np.argmin(slack))
@@ -342,19 +399,8 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
                 slack[bad] = -slack[bad]
         if slack[r] < -feasibility and not np.any(relax):
             if pivot == max_pivots:
-                return _fail(why, f"{violated} rows still violated after {max_pivots} pivots")
-            # leaving row k: Gamma falls by lam_k per unit of row k's slack, row r closes at alpha_k per unit
-            alpha = binv.solve_transposed(a_all[r].toarray().ravel())
-            # a tiny alpha_k would make the new basis (nearly) singular
-            candidates = np.flatnonzero(alpha > max(1e-14, 1e-9 * float(np.max(np.abs(alpha)))))
-            if candidates.size == 0:
-                return _fail(why, f"a violated row cannot be satisfied after {pivot} pivots: the LP looks infeasible")
-            k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
-            try:
-                binv.replace(k, r)
-                bound_pivots += r >= m_pair
-            except RuntimeError:
-                return _fail(why, f"singular contact system after {pivot + 1} pivots")
+                raise _NoVertex(f"{violated} rows still violated after {max_pivots} pivots")
+            bound_pivots += _dual_pivot(binv, a_all, r, lam, pivot, system.m_pair)
             continue
         k = int(np.argmin(lam))
         # optimal once no dual is negative; an exact (round-off) zero is a contact without force at a degenerate
@@ -364,77 +410,111 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
             if np.any(relax):  # the relaxed LP is optimal: back to the true rows, dual pivots from here
                 relax[:] = 0.0
                 continue
-            break
+            return u, lam, pivot, relaxed, bound_pivots
         if pivot >= BLAND_AFTER:  # a degenerate vertex can cycle: Bland's rule, the lowest row index leaves
             negative = np.flatnonzero(lam < -zero)
             k = int(negative[np.argmin(basis[negative])])
         if pivot == max_pivots:
-            return _fail(why, f"{int(np.count_nonzero(lam < -zero))} duals still negative (lowest {lam[k]:.1e} of a "
-                              f"median {float(np.median(lam)):.1e}) after {max_pivots} pivots")
-        # release row basis[k]: direction d with A_B d = -e_k; Gamma grows at rate -lam_k > 0
-        e_k = np.zeros(nu)
-        e_k[k] = -1.0
-        d = binv.solve(e_k)
-        rate = a_all @ d
-        rate[basis] = 0.0
-        blocking = np.flatnonzero(rate > 1e-14)
-        if blocking.size == 0:  # unbounded edge: only the s bounds stop it
-            return _fail(why, f"an unbounded edge after {pivot} pivots")
-        ratios = np.maximum(slack[blocking], 0.0) / rate[blocking]
-        j = int(np.argmin(ratios))  # ties: the lowest row index (blocking is sorted), as Bland's rule wants
-        try:
-            binv.replace(k, blocking[j], column=-d)
-            bound_pivots += blocking[j] >= m_pair
-        except RuntimeError:
-            return _fail(why, f"singular contact system after {pivot + 1} pivots")
-    else:
-        return _fail(why, f"relaxed rows not restored after {max_pivots} pivots")
+            raise _NoVertex(f"{int(np.count_nonzero(lam < -zero))} duals still negative (lowest {lam[k]:.1e} of a "
+                            f"median {float(np.median(lam)):.1e}) after {max_pivots} pivots")
+        bound_pivots += _primal_pivot(binv, a_all, k, slack, pivot, system.m_pair)
+    raise _NoVertex(f"relaxed rows not restored after {max_pivots} pivots")
+
+
+def _dual_pivot(binv: BasisInverse, a_all, r: int, lam, pivot: int, m_pair: int) -> int:
+    """The violated row ``r`` enters the basis, the row the dual ratio test picks leaves. Returns 1 if ``r`` is a
+    bound row, else 0."""
+    # leaving row k: Gamma falls by lam_k per unit of row k's slack, row r closes at alpha_k per unit
+    alpha = binv.solve_transposed(a_all[r].toarray().ravel())
+    # a tiny alpha_k would make the new basis (nearly) singular
+    candidates = np.flatnonzero(alpha > max(1e-14, 1e-9 * float(np.max(np.abs(alpha)))))
+    if candidates.size == 0:
+        raise _NoVertex(f"a violated row cannot be satisfied after {pivot} pivots: the LP looks infeasible")
+    k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
+    try:
+        binv.replace(k, r)
+    except RuntimeError:
+        raise _NoVertex(f"singular contact system after {pivot + 1} pivots") from None
+    return int(r >= m_pair)
+
+
+def _primal_pivot(binv: BasisInverse, a_all, k: int, slack, pivot: int, m_pair: int) -> int:
+    """Row ``binv.basis[k]`` (a negative dual) is released along the edge that keeps the other rows tight, and the
+    first row to close enters (exact ratio test). Returns 1 if the entering row is a bound row, else 0."""
+    basis = binv.basis
+    # release row basis[k]: direction d with A_B d = -e_k; Gamma grows at rate -lam_k > 0
+    e_k = np.zeros(basis.size)
+    e_k[k] = -1.0
+    d = binv.solve(e_k)
+    rate = a_all @ d
+    rate[basis] = 0.0
+    blocking = np.flatnonzero(rate > 1e-14)
+    if blocking.size == 0:  # unbounded edge: only the s bounds stop it
+        raise _NoVertex(f"an unbounded edge after {pivot} pivots")
+    ratios = np.maximum(slack[blocking], 0.0) / rate[blocking]
+    j = int(np.argmin(ratios))  # ties: the lowest row index (blocking is sorted), as Bland's rule wants
+    try:
+        binv.replace(k, blocking[j], column=-d)
+    except RuntimeError:
+        raise _NoVertex(f"singular contact system after {pivot + 1} pivots") from None
+    return int(blocking[j] >= m_pair)
+
+
+def _check_held_components(system: _ContactSystem, lam) -> None:
+    """Raise :class:`_NoVertex` unless every held s component's bound multiplier is >= 0: mu = -(A^T lambda)_j at
+    an upper bound, +(A^T lambda)_j at a lower one."""
+    held, index, value, row_id, fixed = system.held, system.index, system.value, system.row_id, system.fixed
     if np.any(held):
-        # bound multipliers: mu = -(A^T lambda)_j at an upper bound, +(A^T lambda)_j at a lower one, both >= 0
-        row_lam = np.zeros(stable_rows.size)
-        pair = basis < m_pair
-        row_lam[basis[pair]] = lam[pair]
-        at = np.zeros(n * dim + 1)
+        row_lam = np.zeros(system.stable_rows.size)
+        pair = system.basis < system.m_pair
+        row_lam[system.basis[pair]] = lam[pair]
+        at = np.zeros(fixed.size + 1)
         np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
         comps = np.flatnonzero(fixed.ravel())
         if np.any(-fixed.ravel()[comps] * at[comps] < 0.0):
-            return _fail(why, "a held s component has a negative bound multiplier")
-    inflation = max(float(u[-1]), inflation_bounds[0])
-    s = np.zeros((n, dim)) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
+            raise _NoVertex("a held s component has a negative bound multiplier")
+
+
+def _vertex_displacements(system: _ContactSystem, u, rattler_s, s_bound: float, pinned: int) -> np.ndarray:
+    """The vertex's s (N, d): the unknowns ``u``, the held components at their bound, the pinned particle at 0, the
+    rattlers at ``rattler_s`` (within the bounds; 0 if None)."""
+    fixed = system.fixed
+    s = np.zeros(fixed.shape) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
     s[pinned] = 0.0
-    s.ravel()[free_comp] = np.clip(u[:-1], -s_bound, s_bound)  # round-off of an active bound row
+    s.ravel()[system.free_comp] = np.clip(u[:-1], -s_bound, s_bound)  # round-off of an active bound row
     s[fixed != 0] = fixed[fixed != 0] * float(s_bound)
-    pair = basis < m_pair
-    active = np.zeros(len(pi), dtype=bool)
-    active[stable_rows[basis[pair]]] = True
-    # every row of the LP: |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 >= 0. Rattlers (columns without active rows)
-    # may be pushed away from a neighbour their cage wall has come to touch; this keeps the solution optimal.
+    return s
+
+
+def _slack(rij, sigma2, pi, pj, s, inflation):
+    """Every row's slack after the step s: |r|^2 + 2 r.(s_i - s_j) - Gamma sigma^2 (>= 0 where the row holds)."""
+    return np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+
+
+def _settle_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, active, s_bound, feasibility, stuck) -> np.ndarray:
+    """Move the rattlers (``s`` in place) out of the rows they violate at the vertex: pushed away from a neighbour
+    their cage wall has come to touch, which keeps the solution optimal, else placed by a small feasibility LP.
+    Returns every row's slack; raises :class:`_NoVertex` (and fills ``stuck``, see :func:`_solve_vertex`) when
+    they find no place or a row among stable particles is violated."""
     for _ in range(20):
-        slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
+        slack = _slack(rij, sigma2, pi, pj, s, inflation)
         bad = (slack < feasibility) & ~active
         if not np.any(bad):
-            break
+            return slack
         if np.any(bad & ~rattler[pi] & ~rattler[pj] & (slack < -feasibility)):
-            return _fail(why, "a row among stable particles is violated at the vertex")
+            raise _NoVertex("a row among stable particles is violated at the vertex")
         for k in np.flatnonzero(bad & (rattler[pi] | rattler[pj])):
             push = 2.0 * (feasibility - slack[k]) / (2.0 * float(np.dot(rij[k], rij[k])))
             if rattler[pi[k]]:
                 s[pi[k]] += push * rij[k]
             else:
                 s[pj[k]] -= push * rij[k]
-    else:  # a rattler pushed back and forth in a tight cage: place the rattlers by a small feasibility LP
-        if not _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, 2.0 * feasibility):
-            slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
-            bad = (slack < feasibility) & ~active
-            movers = np.unique(np.concatenate([pi[bad & rattler[pi]], pj[bad & rattler[pj]]]))
-            if movers.size:  # else the tight rows are among stable particles (a degenerate vertex): no promotion
-                stuck.update(s=s, inflation=inflation, rattlers=movers)
-            return _fail(why, "no feasible place for the rattlers at the vertex")
-        slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - inflation * sigma2
-    if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
-        return _fail(why, "a row or an s bound is violated at the vertex")
-    duals = np.zeros(len(pi))
-    duals[stable_rows[basis[pair]]] = np.maximum(lam[pair], 0.0)
-    method = f"active-set+{pivot}" + (f"+{relaxed}relaxed" if relaxed else "") + (
-        f"+{bound_pivots}bounds" if bound_pivots else "")
-    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method)
+    # a rattler pushed back and forth in a tight cage: place the rattlers by a small feasibility LP
+    if not _place_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, s_bound, 2.0 * feasibility):
+        slack = _slack(rij, sigma2, pi, pj, s, inflation)
+        bad = (slack < feasibility) & ~active
+        movers = np.unique(np.concatenate([pi[bad & rattler[pi]], pj[bad & rattler[pj]]]))
+        if movers.size:  # else the tight rows are among stable particles (a degenerate vertex): no promotion
+            stuck.update(s=s, inflation=inflation, rattlers=movers)
+        raise _NoVertex("no feasible place for the rattlers at the vertex")
+    return _slack(rij, sigma2, pi, pj, s, inflation)

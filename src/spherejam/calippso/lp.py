@@ -8,6 +8,7 @@ Every solution HiGHS calls optimal is checked here once more (rows, bounds, forc
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -227,22 +228,104 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
 
-    dim = rij.shape[1]
-    m = rij.shape[0]
-    ncol = n * dim + 1
-    start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, n)
-    cost = np.zeros(ncol)
-    cost[-1] = -1.0
-    lower = np.full(ncol, -s_bound)
-    upper = np.full(ncol, s_bound)
-    lower[pinned * dim:(pinned + 1) * dim] = 0.0
-    upper[pinned * dim:(pinned + 1) * dim] = 0.0
-    lower[-1], upper[-1] = inflation_bounds
-    lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
-    keys = pair_keys(pi, pj, n)
-
+    model = _Model.build(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds)
     opts = _highs_options(tolerance, options, solver, threads)
     _limit_blas_threads(threads)
+    failures = []
+    predicted = None  # the basis an uncertified vertex predicts
+    t0 = time.perf_counter()
+    for method, o in _attempts(opts, options, solver, crossover, n, model.ncol, warm, cuts):
+        start = {"warm": warm, "predicted": predicted}.get(method)
+        if method == "predicted" and start is None:
+            continue  # no vertex was predicted
+        h, failure = _run_highs(highspy, model, method, o, start, threads)
+        if failure is not None:
+            failures.append(failure)
+            continue
+        status = h.getModelStatus()
+        if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
+                                                 highspy.HighsModelStatus.kUnbounded):
+            # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
+            vertex, predicted, problem = _certified_vertex(h, model, tolerance)
+            if problem is None:
+                vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
+                return vertex
+            failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
+            continue
+        if status == highspy.HighsModelStatus.kOptimal:
+            optimum, problem = _checked_optimum(h, model, tolerance)
+            if problem is None:
+                s, inflation, duals, basis = optimum
+                return LPSolution(s, inflation, duals, time.perf_counter() - t0, method, basis, o["solver"],
+                                  "; ".join(failures))
+            failures.append(f"{method}: optimal status but {problem}")
+            continue
+        failures.append(f"{method}: {h.modelStatusToString(status)}")
+        if method != "warm" and status in (highspy.HighsModelStatus.kInfeasible,
+                                           highspy.HighsModelStatus.kUnbounded):
+            break  # a property of the LP, not of the method
+    raise SimulationError(
+        f"CALiPPSO LP failed at iteration {iteration} ({len(rij)} pair rows, {model.ncol} columns): "
+        + "; ".join(failures)
+    )
+
+
+@dataclass
+class _Model:
+    """One CALiPPSO LP as HiGHS gets it (``lp``), with what checking its solutions needs: the pair rows' right-hand
+    side, the column bounds (N d displacement components, then Gamma) and the rows' keys."""
+
+    rij: np.ndarray
+    sigma2: np.ndarray
+    pi: np.ndarray
+    pj: np.ndarray
+    n: int
+    s_bound: float
+    pinned: int
+    inflation_bounds: tuple[float, float]
+    lp: Any  # highspy.HighsLp
+    rhs: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    keys: np.ndarray
+
+    @classmethod
+    def build(cls, rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds) -> _Model:
+        dim = rij.shape[1]
+        m = rij.shape[0]
+        ncol = n * dim + 1
+        start, index, value, rhs = constraint_rows(rij, sigma2, pi, pj, n)
+        cost = np.zeros(ncol)
+        cost[-1] = -1.0
+        lower = np.full(ncol, -s_bound)
+        upper = np.full(ncol, s_bound)
+        lower[pinned * dim:(pinned + 1) * dim] = 0.0
+        upper[pinned * dim:(pinned + 1) * dim] = 0.0
+        lower[-1], upper[-1] = inflation_bounds
+        lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
+        return cls(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, lp, rhs, lower, upper,
+                   pair_keys(pi, pj, n))
+
+    @property
+    def dim(self) -> int:
+        return self.rij.shape[1]
+
+    @property
+    def ncol(self) -> int:
+        return self.lower.size
+
+    def problem(self, s, inflation, duals, tolerance) -> str | None:
+        """What is wrong with a solution (:func:`_vertex_problem`), or None."""
+        shape = (self.n, self.dim)
+        return _vertex_problem(self.rij, self.sigma2, self.pi, self.pj, s, inflation, duals,
+                               self.lower[:-1].reshape(shape), self.upper[:-1].reshape(shape), tolerance)
+
+
+def _attempts(opts, options, solver: str, crossover: bool, n: int, ncol: int, warm: LPBasis | None,
+              cuts: bool) -> list[tuple[str, dict[str, Any]]]:
+    """The solves :func:`solve_lp` tries in turn, each ``(method, HiGHS options)``: a warm start if there is a basis
+    to start from, the cold solve by ``solver`` (an uncertified vertex falling back to primal simplex from its
+    predicted basis), then the other kind of solver."""
     if solver == "simplex":
         attempts = [("simplex", opts), ("ipm", {**opts, "solver": "ipx"})]
     else:
@@ -261,82 +344,73 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
         limit = min(warm_pivot_limit(n), opts.get("simplex_iteration_limit", 2**31 - 1))
         attempts.insert(0, ("warm", {**opts, **(SIMPLEX_AFTER_CUTS if cuts else SIMPLEX_FROM_BASIS),
                                      "simplex_iteration_limit": limit, **_simplex_overrides(options)}))
-    failures = []
-    predicted = None  # the basis an uncertified vertex predicts
-    t0 = time.perf_counter()
-    for method, o in attempts:
-        start = {"warm": warm, "predicted": predicted}.get(method)
-        if method == "predicted" and start is None:
-            continue  # no vertex was predicted
-        h = highspy.Highs()
-        for key, val in o.items():
-            if h.setOptionValue(key, val) != highspy.HighsStatus.kOk:
-                raise InputError(f"solver_options: HiGHS rejected option {key}={val!r}")
-        h.passModel(lp)
-        if start is not None and h.setBasis(_warm_basis(start, keys, highspy)) == highspy.HighsStatus.kError:
-            failures.append(f"{method}: basis rejected")
-            continue
-        if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
-            # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
-            failures.append(f"{method}: HiGHS returned an error before solving (threads={threads})")
-            continue
-        status = h.getModelStatus()
-        if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
-                                                 highspy.HighsModelStatus.kUnbounded):
-            # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
-            sol = h.getSolution()
-            vertex = guess = None
-            why: list[str] = []
-            if sol.value_valid and sol.dual_valid:
-                slack = rhs - np.asarray(sol.row_value)
-                duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
-                s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
-                guess = interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s_ipm,
-                                                  np.asarray(sol.col_dual)[:-1].reshape(n, dim), s_bound)
-                if guess is not None:
-                    guess[2][pinned] = 0
-                    vertex = solve_active_set(rij, sigma2, pi, pj, n, guess[0], guess[1], s_bound=s_bound,
-                                              pinned=pinned, inflation_bounds=inflation_bounds, rattler_s=s_ipm,
-                                              fixed=guess[2], max_pivots=MAX_PIVOTS, why=why)
-                else:
-                    why.append("no isostatic prediction")
-            if guess is not None:  # the fallback's start: the predicted vertex as a HiGHS basis
-                predicted = _vertex_basis(LPSolution(s_ipm, 1.0, np.isin(keys, guess[0]).astype(float), 0.0, ""),
-                                          guess[1], guess[2], pinned, keys)
-            if vertex is None:
-                problem = f"its near-active rows are not a certified vertex ({'; '.join(why) or 'no valid solution'})"
-            else:
-                problem = _vertex_problem(rij, sigma2, pi, pj, vertex.s, vertex.inflation, vertex.duals,
-                                          lower[:-1].reshape(n, dim), upper[:-1].reshape(n, dim), tolerance)
-            if problem is None:
-                vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
-                vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
-                vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
-                return vertex
-            failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
-            continue
-        if status == highspy.HighsModelStatus.kOptimal:
-            sol = h.getSolution()
-            x = np.asarray(sol.col_value)
-            # minimisation with <= rows: HiGHS row duals are <= 0; lambda = -dual >= 0
-            duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
-            s = x[:-1].reshape(n, dim)
-            problem = _vertex_problem(rij, sigma2, pi, pj, s, float(x[-1]), duals, lower[:-1].reshape(n, dim),
-                                      upper[:-1].reshape(n, dim), tolerance)
-            if problem is not None:
-                failures.append(f"{method}: optimal status but {problem}")
-                continue
-            basis = None
-            hb = h.getBasis()
-            if hb.valid:
-                order = np.argsort(keys)
-                basis = LPBasis(keys[order], _status_codes(hb.row_status)[order], _status_codes(hb.col_status))
-            return LPSolution(s.copy(), float(x[-1]), duals, time.perf_counter() - t0, method, basis, o["solver"],
-                              "; ".join(failures))
-        failures.append(f"{method}: {h.modelStatusToString(status)}")
-        if method != "warm" and status in (highspy.HighsModelStatus.kInfeasible,
-                                           highspy.HighsModelStatus.kUnbounded):
-            break  # a property of the LP, not of the method
-    raise SimulationError(
-        f"CALiPPSO LP failed at iteration {iteration} ({m} pair rows, {ncol} columns): " + "; ".join(failures)
-    )
+    return attempts
+
+
+def _run_highs(highspy, model: _Model, method: str, options: dict[str, Any], start: LPBasis | None, threads: int):
+    """Run HiGHS on the LP with ``options``, from the basis ``start`` if given: ``(the Highs object, None)``, or
+    ``(it, why it did not solve)``."""
+    h = highspy.Highs()
+    for key, val in options.items():
+        if h.setOptionValue(key, val) != highspy.HighsStatus.kOk:
+            raise InputError(f"solver_options: HiGHS rejected option {key}={val!r}")
+    h.passModel(model.lp)
+    if start is not None and h.setBasis(_warm_basis(start, model.keys, highspy)) == highspy.HighsStatus.kError:
+        return h, f"{method}: basis rejected"
+    if h.run() == highspy.HighsStatus.kError and h.getModelStatus() == highspy.HighsModelStatus.kNotset:
+        # e.g. a thread count other than the process's first solve's: HiGHS's scheduler keeps that one
+        return h, f"{method}: HiGHS returned an error before solving (threads={threads})"
+    return h, None
+
+
+def _certified_vertex(h, model: _Model, tolerance: float):
+    """The vertex an interior point (without crossover) heads for, certified by :func:`solve_active_set`:
+    ``(the vertex, the predicted vertex's basis, None)``, or ``(None or the vertex, the predicted basis or None, what
+    is wrong)``; the predicted basis is the fallback's start."""
+    n, dim, pinned, keys = model.n, model.dim, model.pinned, model.keys
+    sol = h.getSolution()
+    vertex = guess = predicted = None
+    why: list[str] = []
+    if sol.value_valid and sol.dual_valid:
+        slack = model.rhs - np.asarray(sol.row_value)
+        duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+        s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
+        guess = interior_point_prediction(model.pi, model.pj, n, dim, model.sigma2, duals, slack, s_ipm,
+                                          np.asarray(sol.col_dual)[:-1].reshape(n, dim), model.s_bound)
+        if guess is not None:
+            guess[2][pinned] = 0
+            vertex = solve_active_set(model.rij, model.sigma2, model.pi, model.pj, n, guess[0], guess[1],
+                                      s_bound=model.s_bound, pinned=pinned, inflation_bounds=model.inflation_bounds,
+                                      rattler_s=s_ipm, fixed=guess[2], max_pivots=MAX_PIVOTS, why=why)
+        else:
+            why.append("no isostatic prediction")
+    if guess is not None:  # the fallback's start: the predicted vertex as a HiGHS basis
+        predicted = _vertex_basis(LPSolution(s_ipm, 1.0, np.isin(keys, guess[0]).astype(float), 0.0, ""),
+                                  guess[1], guess[2], pinned, keys)
+    if vertex is None:
+        why_not = "; ".join(why) or "no valid solution"
+        return None, predicted, f"its near-active rows are not a certified vertex ({why_not})"
+    problem = model.problem(vertex.s, vertex.inflation, vertex.duals, tolerance)
+    if problem is None:
+        vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
+        vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
+    return vertex, predicted, problem
+
+
+def _checked_optimum(h, model: _Model, tolerance: float):
+    """The solution of a solve HiGHS calls optimal, checked once more: ``((s, Gamma, duals, basis or None), None)``,
+    or ``(None, what is wrong)``."""
+    sol = h.getSolution()
+    x = np.asarray(sol.col_value)
+    # minimisation with <= rows: HiGHS row duals are <= 0; lambda = -dual >= 0
+    duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
+    s = x[:-1].reshape(model.n, model.dim)
+    problem = model.problem(s, float(x[-1]), duals, tolerance)
+    if problem is not None:
+        return None, problem
+    basis = None
+    hb = h.getBasis()
+    if hb.valid:
+        order = np.argsort(model.keys)
+        basis = LPBasis(model.keys[order], _status_codes(hb.row_status)[order], _status_codes(hb.col_status))
+    return (s.copy(), float(x[-1]), duals, basis), None

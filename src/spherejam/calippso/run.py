@@ -303,145 +303,180 @@ def run_calippso(
               initial_sqrt_inflation, zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval,
               regime_thresholds, threads)
     solver = resolve_solver(solver, packing.n)
-    if crossover is None:
-        crossover = solver != "hipo"
     wall0 = time.perf_counter()
     report = packing.check(overlap_tolerance)
     if not report.ok:
         raise OverlapError(f"CALiPPSO input: {report}")
-    n, dim = packing.n, packing.dim
+    cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
+                    threads, crossover, active_set, warm_start, constraint_generation)
+    run = _Run.start(packing, cfg, initial_sqrt_inflation)
+    parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
+                             displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
+    ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, {
+        k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}), checkpoint_interval)
+    run.resume(ckpt)
+    converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
+                         Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval))
+    if not converged and require_convergence:
+        raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
+                              f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
+                              f"max|s| = {run.history.last('max_displacement'):.3e})")
+    return _result(packing, run, cfg, parameters, ckpt, converged, fine_tune, gap_range, overlap_tolerance, wall0)
+
+
+# --- setting a run up and assembling its result -----------------------------------------------------------------------
+
+
+def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
+              threads, crossover, active_set, warm_start, constraint_generation) -> _Settings:
+    """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
+    becomes False for HiPO, True otherwise (the faster pairing of each)."""
+    n = packing.n
     unit = float(packing.diameters.max())  # internal length unit: the initial largest diameter
-    box = packing.box / unit
-    x = packing.positions / unit
-    dia = packing.diameters / unit
-    phi_initial = packing.phi
-    cutoff0 = 2.0 if cutoff is None else float(cutoff)
-    if initial_sqrt_inflation is None:
-        initial_sqrt_inflation = 1.0 + nearest_gap_median(x, dia, box)
-    parameters = {
-        "max_iterations": int(max_iterations), "inflation_tolerance": inflation_tolerance,
-        "displacement_tolerance": displacement_tolerance, "s_bound": s_bound, "cutoff": cutoff0,
-        "initial_sqrt_inflation": float(initial_sqrt_inflation), "regime_thresholds": list(regime_thresholds),
-        "zero_force": zero_force, "solver_tolerance": solver_tolerance, "overlap_tolerance": overlap_tolerance,
-        "fine_tune": bool(fine_tune), "active_set": bool(active_set), "warm_start": bool(warm_start),
-        "solver": solver, "threads": int(threads), "crossover": bool(crossover),
-        "constraint_generation": bool(constraint_generation), "highs_version": highs_version(),
-    }
-    cfg = _Settings(
-        n=n, dim=dim, box=box, cutoff0=cutoff0, s_bound=s_bound, regime_thresholds=tuple(regime_thresholds),
-        zero_force=zero_force, solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver,
-        threads=int(threads), crossover=bool(crossover), active_set=bool(active_set),
+    return _Settings(
+        n=n, dim=packing.dim, unit=unit, box=packing.box / unit, cutoff0=2.0 if cutoff is None else float(cutoff),
+        s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
+        solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver, threads=int(threads),
+        crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
         constraint_generation=bool(constraint_generation),
         warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
     )
 
-    history = History()
-    loop = _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation), pinned=initial_pin(x, dia, box))
-    iteration = 0
-    tally = _Tally()
-    ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, {
-        k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}), checkpoint_interval)
-    resumed = ckpt.resume()
-    if resumed is not None:
-        arrays, attrs, rows = resumed
-        x, dia = arrays["positions"], arrays["diameters"]
-        iteration, tally.lp_time = attrs["iteration"], attrs["lp_time"]
-        loop = _LoopState.restore(arrays, attrs)
-        history = History(rows)
-    progress = Progress(f"calippso N={n} d={dim}", progress_interval)
-    last = None  # (the LP, its solution, its rattlers) of the latest main-loop LP
-    converged = False
 
-    while iteration < max_iterations:
-        lp = _schedule(x, dia, loop, cfg)
-        cpu0 = time.process_time()
-        sol = _solve(lp, loop, cfg, tally, iteration)
-        iteration += 1
-        lp_cpu = time.process_time() - cpu0
-        tally.count(sol, lp_cpu)
-        contact, rattler, n_contacts, isostatic, changes = _check(lp, sol, loop, cfg)
-        at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
-        x, dia, sqrt_inflation, correction = _step(x, dia, sol, box, iteration)
-        max_s, max_s_all = _largest_displacements(sol.s, rattler, dia)
-        phi = _phi(dia, box, dim)
-        history.append(
-            sqrt_inflation_minus_1=sqrt_inflation - 1.0, max_displacement=max_s, max_displacement_all=max_s_all,
-            phi=phi, n_constraints=len(lp.pi), solve_time=sol.solve_time, cpu_time=lp_cpu,
-            cutoff=lp.ell / dia.max(), s_bound=lp.s_bound / dia.max(), regime=lp.regime,
-            method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
-            n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
-            contact_changes=changes, bound_active=at_bound, lp_rows=sol.rows if sol.rows >= 0 else len(lp.pi),
-            rows_added=sol.rows_added,
-        )
-        progress.update(
-            f"it {iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
-            f"rows {len(lp.pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
-            f"LP {sol.solve_time:.2f} s, CPU {lp_cpu:.2f} s ({sol.method}, {sol.solver})",
-            fields={"LP": iteration, "√Γ-1": sqrt_inflation - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
-        )
-        if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
-            _log.info("calippso it %d solved by %s after: %s", iteration, sol.method, sol.failed)
-        last = (lp, sol, rattler)
-        _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation)
-        if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
-            converged = True
-            break
-        if ckpt.due():
-            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
-        if interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
-            ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
-            interrupt.stop(checkpoint, f"after {iteration} iterations")
+def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, inflation_tolerance,
+                displacement_tolerance, overlap_tolerance, fine_tune, warm_start) -> dict[str, Any]:
+    """The run's parameters as the output's metadata records them and the checkpoint's fingerprint hashes them
+    (``warm_start`` as asked for, before the limit in N)."""
+    return {
+        "max_iterations": int(max_iterations), "inflation_tolerance": inflation_tolerance,
+        "displacement_tolerance": displacement_tolerance, "s_bound": cfg.s_bound, "cutoff": cfg.cutoff0,
+        "initial_sqrt_inflation": float(initial_sqrt_inflation), "regime_thresholds": list(cfg.regime_thresholds),
+        "zero_force": cfg.zero_force, "solver_tolerance": cfg.solver_tolerance, "overlap_tolerance": overlap_tolerance,
+        "fine_tune": bool(fine_tune), "active_set": cfg.active_set, "warm_start": bool(warm_start),
+        "solver": cfg.solver, "threads": cfg.threads, "crossover": cfg.crossover,
+        "constraint_generation": cfg.constraint_generation, "highs_version": highs_version(),
+    }
 
-    if not converged and require_convergence:
-        raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
-                              f"(last sqrt(Gamma)-1 = {history.last('sqrt_inflation_minus_1'):.3e}, "
-                              f"max|s| = {history.last('max_displacement'):.3e})")
 
-    lp, duals, fine_tuned, fine_inflation = _force_lp(x, dia, loop, cfg, tally, iteration, fine_tune, last)
-    contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, n,
-                                                                        dim, zero_force)
+def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: bool, fine_tune: bool, gap_range: float,
+            overlap_tolerance: float, wall0: float) -> CalippsoResult:
+    """Assemble the result: the forces of one more LP (docs §2.3), their contact network and the gaps, the jammed
+    packing in the input's units and the counters. The checkpoint goes once the run has converged; otherwise it is
+    saved for a later call with a larger ``max_iterations`` to continue from."""
+    lp, duals, fine_tuned, fine_inflation = _force_lp(run, cfg, fine_tune)
+    contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, cfg.n,
+                                                                        cfg.dim, cfg.zero_force)
+    pairs, forces, vectors, stable_pair = _contact_forces(lp, duals, contact, rattler)
+    gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
+                                pair_keys(lp.pi, lp.pj, cfg.n)[stable_pair], cfg.n)
+    out = _jammed_packing(packing, run.x * cfg.unit, run.dia * cfg.unit, parameters)
+    final_report = out.check(overlap_tolerance)
+    if not final_report.ok:  # cannot happen by construction; never return an overlapping packing
+        raise SimulationError(f"CALiPPSO output overlaps: {final_report}")
+    wall = time.perf_counter() - wall0
+    stop_reason = "converged" if converged else "max_iterations"
+    phi_initial = packing.phi
+    counters = {
+        "iterations": run.iteration, "stop_reason": stop_reason, "converged": converged,
+        "lp_time": run.tally.lp_time, "lp_cpu_time": run.tally.lp_cpu_time, "wall_time": wall,
+        "lp_methods": run.tally.methods, "lp_solvers": run.tally.solvers, "warm_attempts": run.tally.warm_attempts,
+        "fine_tuned": fine_tuned,
+        "fine_tune_sqrt_inflation_minus_1": math.sqrt(fine_inflation) - 1.0 if fine_inflation > 0 else math.nan,
+        "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
+        "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
+        "worst_overlap": final_report.worst_overlap, "pinned": int(run.loop.pinned),
+    }
+    out.metadata["counters"] = counters
+    if converged:
+        ckpt.discard()
+    else:  # a later call with a larger max_iterations continues from here
+        run.save(ckpt)
+    return CalippsoResult(
+        packing=out, stop_reason=stop_reason, iterations=run.iteration, history=run.history.as_arrays(),
+        pairs=pairs, forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts,
+        isostatic=isostatic, force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial,
+        wall_time=wall, fine_tuned=fine_tuned, counters=counters,
+    )
+
+
+def _contact_forces(lp: _LP, duals, contact, rattler):
+    """The contacts among non-rattlers: ``(pairs (K, 2), forces f_ij = lambda_ij r_ij divided by their mean, unit
+    vectors (r_i - r_j)/|r_i - r_j|, the mask of these rows among the LP's)``."""
     stable_pair = contact & ~rattler[lp.pi] & ~rattler[lp.pj]
     r_norm = np.linalg.norm(lp.rij, axis=1)
     f = duals[stable_pair] * r_norm[stable_pair]
     forces = f / f.mean() if f.size else f
     pairs = np.stack([lp.pi[stable_pair], lp.pj[stable_pair]], axis=1)
     vectors = lp.rij[stable_pair] / r_norm[stable_pair, None]
-    gaps, gap_pairs = near_gaps(x, dia, box, gap_range, rattler, pair_keys(lp.pi, lp.pj, n)[stable_pair], n)
+    return pairs, forces, vectors, stable_pair
 
-    out = Packing(
-        x * unit, dia * unit, packing.box,
+
+def _jammed_packing(packing: Packing, positions, diameters, parameters) -> Packing:
+    """The output packing: the input's box and metadata (but its provenance and pressure), marked as CALiPPSO's."""
+    return Packing(
+        positions, diameters, packing.box,
         {
             **{k: v for k, v in packing.metadata.items() if k not in ("provenance", "reduced_pressure")},
             "algorithm": "calippso",
             "parameters": {**parameters, "input_algorithm": packing.metadata.get("algorithm")},
         },
     )
-    final_report = out.check(overlap_tolerance)
-    if not final_report.ok:  # cannot happen by construction; never return an overlapping packing
-        raise SimulationError(f"CALiPPSO output overlaps: {final_report}")
-    wall = time.perf_counter() - wall0
-    stop_reason = "converged" if converged else "max_iterations"
-    counters = {
-        "iterations": iteration, "stop_reason": stop_reason, "converged": converged, "lp_time": tally.lp_time,
-        "lp_cpu_time": tally.lp_cpu_time, "wall_time": wall,
-        "lp_methods": tally.methods, "lp_solvers": tally.solvers, "warm_attempts": tally.warm_attempts,
-        "fine_tuned": fine_tuned,
-        "fine_tune_sqrt_inflation_minus_1": math.sqrt(fine_inflation) - 1.0 if fine_inflation > 0 else math.nan,
-        "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
-        "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
-        "worst_overlap": final_report.worst_overlap, "pinned": int(loop.pinned),
-    }
-    out.metadata["counters"] = counters
-    if converged:
-        ckpt.discard()
-    else:  # a later call with a larger max_iterations continues from here
-        ckpt.save(loop.arrays(x, dia), loop.attrs(iteration, tally.lp_time), history.as_arrays())
-    return CalippsoResult(
-        packing=out, stop_reason=stop_reason, iterations=iteration, history=history.as_arrays(), pairs=pairs,
-        forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts, isostatic=isostatic,
-        force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial, wall_time=wall,
-        fine_tuned=fine_tuned, counters=counters,
+
+
+# --- the main loop: iterate until converged, each iteration in its steps (docs §1-§2) --------------------------------
+
+
+def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterations: int, inflation_tolerance: float,
+             displacement_tolerance: float, progress: Progress) -> bool:
+    """Iterate until both tolerances are met (True) or ``max_iterations`` LPs have been solved (False). The state is
+    saved whenever the checkpoint is due, and on SIGTERM/SIGINT, which then stop the run."""
+    while run.iteration < max_iterations:
+        sqrt_inflation, max_s = _iteration(run, cfg, progress)
+        if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
+            return True
+        if ckpt.due():
+            run.save(ckpt)
+        if interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
+            run.save(ckpt)
+            interrupt.stop(checkpoint, f"after {run.iteration} iterations")
+    return False
+
+
+def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, float]:
+    """One iteration: schedule, solve, check, step, record, hand over. Returns what convergence is judged on:
+    ``(sqrt(Gamma) as applied, max |s_{i,mu}| over non-rattlers in units of the largest diameter)``."""
+    loop = run.loop
+    lp = _schedule(run.x, run.dia, loop, cfg)
+    cpu0 = time.process_time()
+    sol = _solve(lp, loop, cfg, run.tally, run.iteration)
+    run.iteration += 1
+    lp_cpu = time.process_time() - cpu0
+    run.tally.count(sol, lp_cpu)
+    contact, rattler, n_contacts, isostatic, changes = _check(lp, sol, loop, cfg)
+    at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
+    run.x, run.dia, sqrt_inflation, correction = _step(run.x, run.dia, sol, cfg.box, run.iteration)
+    max_s, max_s_all = _largest_displacements(sol.s, rattler, run.dia)
+    phi = _phi(run.dia, cfg.box, cfg.dim)
+    run.history.append(
+        sqrt_inflation_minus_1=sqrt_inflation - 1.0, max_displacement=max_s, max_displacement_all=max_s_all,
+        phi=phi, n_constraints=len(lp.pi), solve_time=sol.solve_time, cpu_time=lp_cpu,
+        cutoff=lp.ell / run.dia.max(), s_bound=lp.s_bound / run.dia.max(), regime=lp.regime,
+        method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
+        n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
+        contact_changes=changes, bound_active=at_bound, lp_rows=sol.rows if sol.rows >= 0 else len(lp.pi),
+        rows_added=sol.rows_added,
     )
+    progress.update(
+        f"it {run.iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
+        f"rows {len(lp.pi)}, contacts {n_contacts}, rattlers {int(rattler.sum())}, iso {isostatic}, "
+        f"LP {sol.solve_time:.2f} s, CPU {lp_cpu:.2f} s ({sol.method}, {sol.solver})",
+        fields={"LP": run.iteration, "√Γ-1": sqrt_inflation - 1.0, "LP time": f"{sol.solve_time:.2f} s"},
+    )
+    if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
+        _log.info("calippso it %d solved by %s after: %s", run.iteration, sol.method, sol.failed)
+    run.last = (lp, sol, rattler)
+    _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation)
+    return sqrt_inflation, max_s
 
 
 # --- the steps of one iteration: schedule, solve, check, step, converge (docs §1-§2) ---------------------------------
@@ -453,6 +488,7 @@ class _Settings:
 
     n: int
     dim: int
+    unit: float  # the initial largest diameter, in the input's length unit
     box: float
     cutoff0: float  # l0
     s_bound: float | None  # a fixed bound in units of the current largest diameter (None: the regimes)
@@ -634,13 +670,14 @@ def _converged(sqrt_inflation: float, max_s: float, inflation_tolerance: float,
     return sqrt_inflation - 1.0 <= inflation_tolerance and max_s <= displacement_tolerance
 
 
-def _force_lp(x, dia, loop, cfg: _Settings, tally: _Tally, iteration: int, fine_tune: bool, last):
+def _force_lp(run: _Run, cfg: _Settings, fine_tune: bool):
     """The forces: one more LP at the final configuration, s bounded by R only and Gamma free; nothing moves
     (docs §2.3). Returns ``(the LP, its duals, fine_tuned, its Gamma)``; without it (``fine_tune`` off, or it
     failed) the last main-loop LP and its duals."""
-    R = 0.5 * float(dia.max())
+    loop, tally, iteration = run.loop, run.tally, run.iteration
+    R = 0.5 * float(run.dia.max())
     ell = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds)[0]  # the final cutoff
-    lp = _rows(x, dia, cfg.box, ell)
+    lp = _rows(run.x, run.dia, cfg.box, ell)
     cpu0 = time.process_time()
     if fine_tune:
         try:
@@ -659,10 +696,10 @@ def _force_lp(x, dia, loop, cfg: _Settings, tally: _Tally, iteration: int, fine_
         except SimulationError:
             pass
     tally.lp_cpu_time += time.process_time() - cpu0
-    if last is None:
+    if run.last is None:
         raise SimulationError("CALiPPSO: no LP solved (checkpoint already at max_iterations?)")
     # the main loop's last LP: its pair vectors are at the positions before the last (tiny) step
-    lp, sol, _ = last
+    lp, sol, _ = run.last
     return lp, sol.duals, False, math.nan
 
 
@@ -710,6 +747,45 @@ class _LoopState:
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
                    bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
                    arrays.get("contact_keys"))
+
+
+@dataclass
+class _Run:
+    """Where a run stands: positions and diameters (in the driver's units), the LPs solved so far, what the next
+    iteration needs (:class:`_LoopState`), the history, the LP tally, and the latest main-loop LP."""
+
+    x: np.ndarray
+    dia: np.ndarray
+    loop: _LoopState
+    iteration: int = 0
+    history: History = field(default_factory=History)
+    tally: _Tally = field(default_factory=_Tally)
+    last: tuple[_LP, LPSolution, np.ndarray] | None = None  # (the LP, its solution, its rattlers)
+
+    @classmethod
+    def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
+        """The input in the driver's units; ``initial_sqrt_inflation`` None: 1 + the median nearest-neighbour gap
+        (docs §1.6)."""
+        x = packing.positions / cfg.unit
+        dia = packing.diameters / cfg.unit
+        if initial_sqrt_inflation is None:
+            initial_sqrt_inflation = 1.0 + nearest_gap_median(x, dia, cfg.box)
+        return cls(x, dia, _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation),
+                                      pinned=initial_pin(x, dia, cfg.box)))
+
+    def resume(self, ckpt: Checkpoint) -> None:
+        """Continue from the checkpoint's state, if it has one (docs §7)."""
+        resumed = ckpt.resume()
+        if resumed is not None:
+            arrays, attrs, rows = resumed
+            self.x, self.dia = arrays["positions"], arrays["diameters"]
+            self.iteration, self.tally.lp_time = attrs["iteration"], attrs["lp_time"]
+            self.loop = _LoopState.restore(arrays, attrs)
+            self.history = History(rows)
+
+    def save(self, ckpt: Checkpoint) -> None:
+        ckpt.save(self.loop.arrays(self.x, self.dia), self.loop.attrs(self.iteration, self.tally.lp_time),
+                  self.history.as_arrays())
 
 
 def _phi(dia, box, dim) -> float:
