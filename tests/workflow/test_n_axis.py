@@ -21,7 +21,7 @@ from spherejam.workflow.experiment import Experiment, Run
 from spherejam.workflow.fits import design_matrix
 from spherejam.workflow.tables import compute_tables, write_tables
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _tiny(**changes) -> dict:

@@ -9,7 +9,7 @@ import yaml
 
 from spherejam.workflow.experiment import Experiment
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def spherejam(*args):

@@ -1,5 +1,5 @@
 """Any box, any size ratio: LS, MLS and FB where pairs meet through several periodic images (N = 2 ... 200,
-sigma up to 0.5, bidisperse 1:10), checked by a brute-force overlap test over all images written here (no cell
+sigma up to 0.5, bidisperse 1:10), checked by a brute-force overlap test over all images (tests/packings.py, no cell
 list), and the small-N physics (the N = 2 BCC crystal, the hard-sphere equation of state at N = 32)."""
 
 import itertools
@@ -18,23 +18,9 @@ from spherejam.engines.event_driven import LSEngine
 from spherejam.engines.force_biased import run_fb
 from spherejam.engines.lubachevsky_stillinger import maxwell_velocities, run_ls
 
+from packings import worst_overlap_all_images
+
 QUIET = {"progress_interval": 1e9}
-
-
-def worst_overlap_all_images(packing: Packing) -> float:
-    """max over pairs i <= j and over every image n (n != 0 for i = j) of 1 - |x_j + n L - x_i| / D_ij."""
-    x, d, box = packing.positions, packing.diameters, packing.box
-    reach = int(math.ceil(d.max() / box)) + 1
-    shifts = box * np.array(list(itertools.product(range(-reach, reach + 1), repeat=3)), dtype=float)
-    own = np.any(shifts != 0.0, axis=1)
-    worst = -math.inf
-    for i in range(packing.n):
-        v = x[i:, None, :] + shifts[None, :, :] - x[i]
-        r = np.sqrt(np.einsum("jsk,jsk->js", v, v))
-        h = 1.0 - r / (0.5 * (d[i] + d[i:]))[:, None]
-        h[0, ~own] = -math.inf  # a sphere and itself, unshifted
-        worst = max(worst, float(h.max()))
-    return worst
 
 
 def image_pairs_brute_force(packing: Packing, scale: float):

@@ -22,7 +22,7 @@ from spherejam.core.errors import InputError
 from spherejam.core.validation import FIELDS, Bound
 from spherejam.workflow.config import check_config, validate_config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = ROOT / "config" / "schema.yaml"
 TINY = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
 

@@ -242,7 +242,7 @@ def test_fig1_is_in_all_only_when_asked_for(tmp_path, render):
 
     from spherejam.workflow.experiment import Experiment
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     cfg = yaml.safe_load(open(os.path.join(root, "config", "tiny.yaml")))
     cfg["results"] = str(tmp_path / "results")
     cfg["figures"] = {"render_fig1": render}

@@ -15,7 +15,7 @@ from spherejam.core.seeding import poisson_packing
 from spherejam.formats import packing_generation as pg
 
 # the script imports its parts as the package `parity` from its own folder, as when it is run
-_BENCHMARKS = str(Path(__file__).resolve().parents[1] / "benchmarks")
+_BENCHMARKS = str(Path(__file__).resolve().parents[2] / "benchmarks")
 if _BENCHMARKS not in sys.path:
     sys.path.insert(0, _BENCHMARKS)
 mp = importlib.import_module("mls_parity")

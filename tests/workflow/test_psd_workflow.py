@@ -159,7 +159,7 @@ def test_psd_file_is_an_input_of_the_jobs_that_read_it(tmp_path):
 
     import yaml
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     powder = tmp_path / "powder.csv"
     powder.write_text("size,volume\n1,0.5\n1.3,0.5\n")
     config = yaml.safe_load((root / "config" / "psd.yaml").read_text())

@@ -10,7 +10,7 @@ import pytest
 import spherejam
 from spherejam.core import provenance
 
-PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
+PYPROJECT = Path(__file__).resolve().parents[2] / "pyproject.toml"
 
 
 def _pyproject_version() -> str:

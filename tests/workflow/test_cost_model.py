@@ -187,7 +187,7 @@ def test_plan_counts_the_workflows_jobs():
 
     from spherejam.workflow.experiment import Experiment
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     config = yaml.safe_load((root / "config" / "config.yaml").read_text())
     [table] = cr.plan(config).values()  # one N
     exp = Experiment(config)
@@ -211,7 +211,7 @@ def test_cost_command_prints_the_plan(tmp_path, capsys):
     the workflow's rules, and the total."""
     from spherejam.cli import main
 
-    root = Path(__file__).resolve().parents[1] / "config"
+    root = Path(__file__).resolve().parents[2] / "config"
     configs = [str(root / "config.yaml"), str(root / "paper.yaml")]
     assert main(["cost", *configs]) == 0
     table = capsys.readouterr().out

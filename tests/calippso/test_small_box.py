@@ -18,7 +18,7 @@ from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming
 from spherejam.engines.lubachevsky_stillinger import run_ls
 
-from test_any_box import worst_overlap_all_images
+from packings import worst_overlap_all_images
 
 
 def brute_force_rows(x, box, cutoff):

@@ -11,7 +11,7 @@ import yaml
 
 from spherejam.workflow.cost_model import load_configs
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
 
 

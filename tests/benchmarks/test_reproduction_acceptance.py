@@ -4,7 +4,7 @@ import csv
 import importlib.util
 from pathlib import Path
 
-_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "reproduction_acceptance.py"
+_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "reproduction_acceptance.py"
 _spec = importlib.util.spec_from_file_location("reproduction_acceptance", _PATH)
 ra = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(ra)

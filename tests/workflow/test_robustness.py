@@ -24,7 +24,7 @@ from spherejam.core.errors import InputError, OutputError
 from spherejam.core.packing_io import read_packing, write_packing
 from spherejam.core.seeding import poisson_packing
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+SRC = str(Path(__file__).resolve().parents[2] / "src")
 #: The device numbers of /dev/null, for a private node with the same device (the real /dev is never touched).
 _NULL_NUMBERS = os.stat(os.devnull).st_rdev
 

@@ -1,0 +1,158 @@
+"""The vertex predicted and certified without HiGHS (calippso/active_set.py): basis updates, rattler placement,
+bound pivots, relaxed rows and promoted rattlers, the fallback to HiGHS."""
+
+import numpy as np
+import pytest
+
+from spherejam.calippso.constraints import pair_vectors, pairs_in_cutoff
+from spherejam.calippso.lp import solve_lp
+from spherejam.calippso.run import run_calippso
+
+from certificate import assert_jammed
+
+
+def test_basis_inverse_tracks_row_replacements_like_a_fresh_lu():
+    """The product-form updates solve, and transposed solve, as a fresh factorisation of the replaced rows does,
+    across a refactorisation (more replacements than REFACTOR_EVERY)."""
+    from scipy.sparse import random as sparse_random, identity, vstack
+
+    from spherejam.calippso import active_set
+
+    rng = np.random.default_rng(3)
+    n = 40
+    base = (identity(n) * 4.0 + sparse_random(n, n, density=0.1, random_state=rng)).tocsr()
+    extra = (sparse_random(3 * n, n, density=0.15, random_state=rng) + 0.0).tocsr()
+    matrix = vstack([base, extra + identity(n, format="csr")[rng.integers(0, n, 3 * n)] * 3.0]).tocsr()
+    basis = np.arange(n)
+    binv = active_set.BasisInverse(matrix, basis.copy())
+    b = rng.normal(size=n)
+    replaced = 0
+    while replaced < active_set.REFACTOR_EVERY + 7:
+        k = int(rng.integers(0, n))
+        row = int(rng.integers(n, matrix.shape[0]))
+        if row in binv.basis:
+            continue
+        trial = binv.basis.copy()
+        trial[k] = row
+        dense = matrix[trial].toarray()
+        if abs(np.linalg.det(dense / 4.0)) < 1e-6:
+            continue  # keep the test away from nearly singular bases
+        binv.replace(k, row)
+        replaced += 1
+        assert np.array_equal(binv.basis, trial)
+        np.testing.assert_allclose(dense @ binv.solve(b), b, atol=1e-9)
+        np.testing.assert_allclose(dense.T @ binv.solve_transposed(b), b, atol=1e-9)
+    assert len(binv.updates) == 7  # refactorised once, on the REFACTOR_EVERY-th replacement
+
+
+def test_rattlers_are_placed_by_a_feasibility_lp_when_pushing_fails():
+    """A rattler between two fixed neighbours on a line: from a place that violates one row, the small LP puts it
+    where both rows hold (and moves nothing else); a cage too small for it is reported, not papered over."""
+    from spherejam.calippso.active_set import _place_rattlers
+
+    # particle 1 (rattler) between 0 and 2 on a line, all diameters 1: r_ij = x_i - x_j for the pairs (0,1), (1,2)
+    rij = np.array([[-1.05, 0.0, 0.0], [-1.05, 0.0, 0.0]])
+    sigma2 = np.ones(2)
+    pi, pj = np.array([0, 1]), np.array([1, 2])
+    rattler = np.array([False, True, False])
+    s = np.zeros((3, 3))
+    s[1, 0] = -0.06  # too close to 0: row (0, 1) violated
+    assert np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj]))[0] < 1.0
+    assert _place_rattlers(rij, sigma2, pi, pj, s, 1.0, rattler, 0.1, 1e-12)
+    slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (s[pi] - s[pj])) - sigma2
+    assert np.all(slack >= 1e-12) and np.all(np.abs(s) <= 0.1)
+    assert np.array_equal(s[[0, 2]], np.zeros((2, 3)))  # only the rattler moved
+    s = np.zeros((3, 3))
+    s[0, 0], s[2, 0] = 0.06, -0.06  # the walls closed in: 2.1 - 0.12 < 2 diameters, no room
+    assert not _place_rattlers(rij, sigma2, pi, pj, s, 1.0, rattler, 0.1, 1e-12)
+
+
+def _main_loop_lp(packing, cutoff=1.35):
+    """The rows of a main-loop LP of ``packing`` in its own units (pairs within ``cutoff`` largest diameters)."""
+    x, box = packing.positions, packing.box
+    i, j, _ = pairs_in_cutoff(x, box, cutoff)
+    return pair_vectors(x, box, i, j), (0.5 * (packing.diameters[i] + packing.diameters[j])) ** 2, i, j
+
+
+def test_active_set_pivots_a_bound_in_when_the_prediction_overshoots_it(ls_jammed_256):
+    """The contact network of an LP predicts the vertex of the same LP with a tighter s bound only if the solve can
+    pivot on bounds: the prediction's vertex lies beyond the bound, dual pivots bring bound rows in, and the result
+    is HiGHS's optimum (same Gamma, a bound active) -- before bounds were rows, this fell back to HiGHS."""
+    from spherejam.calippso.active_set import network_prediction, solve_active_set
+    from spherejam.calippso.network import contact_network
+
+    n = ls_jammed_256.n
+    rij, sigma2, i, j = _main_loop_lp(ls_jammed_256)
+    wide = solve_lp(rij, sigma2, i, j, n, s_bound=0.05, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    contact, rattler, _, isostatic, _ = contact_network(rij, sigma2, i, j, wide.duals, n, 3, 1e-10)
+    assert isostatic
+    stable_s = float(np.max(np.abs(wide.s[~rattler])))
+    tight = 0.5 * stable_s  # the wide LP's vertex is beyond this bound
+    why: list[str] = []
+    sol = solve_active_set(rij, sigma2, i, j, n, *network_prediction(contact, rattler, i, j, n), s_bound=tight,
+                           pinned=0, inflation_bounds=(1.0, 2.0), max_pivots=500, why=why)
+    assert sol is not None, why
+    assert "bounds" in sol.method  # a bound row entered
+    ref = solve_lp(rij, sigma2, i, j, n, s_bound=tight, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    assert sol.inflation == pytest.approx(ref.inflation, rel=0, abs=1e-12)
+    assert np.max(np.abs(sol.s)) == pytest.approx(tight, rel=1e-12) and np.all(np.abs(sol.s) <= tight)
+    excess = np.einsum("ij,ij->i", rij, rij + 2.0 * (sol.s[i] - sol.s[j])) - sol.inflation * sigma2
+    assert excess.min() >= -1e-12 and np.all(sol.duals >= 0)
+
+
+@pytest.fixture(scope="module")
+def ls_fast_256():
+    """A fast LS packing (rate 1e-2) at p = 1e12: its LPs creep, their contact networks change from LP to LP."""
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.lubachevsky_stillinger import run_ls
+
+    return run_ls(poisson_packing(256, 0.0, 3), 1e-2, p_max=1e12, seed=3, progress_interval=1e9).packing
+
+
+def test_active_set_relaxes_and_promotes_on_a_creeping_input(monkeypatch, ls_fast_256):
+    """Where the previous contact network is beyond other rows with negative duals, or leaves a rattler no place,
+    the active-set solve relaxes those rows / makes the rattler a member, and certifies the LP instead of falling
+    back to HiGHS (every LP from N = 4096 on goes this way; forced here at N = 256 by warm_start=False). The
+    certificate is the one of a run where every LP is solved by HiGHS."""
+    import spherejam.calippso.run as run_module
+
+    methods: list[str] = []
+    solve = run_module.solve_active_set
+
+    def recorded(*args, **kwargs):
+        sol = solve(*args, **kwargs)
+        methods.append("failed" if sol is None else sol.method)
+        return sol
+
+    monkeypatch.setattr(run_module, "solve_active_set", recorded)
+    new = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    monkeypatch.setattr(run_module, "solve_active_set", solve)
+    every = run_calippso(ls_fast_256, solver="hipo", warm_start=False, active_set=False)
+    assert any("relaxed" in m for m in methods), methods
+    assert any("promoted" in m for m in methods), methods
+    assert_jammed(new, 3)
+    assert_jammed(every, 3)
+    assert new.counters["lp_methods"].get("active-set", 0) > len(methods) // 2
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in every.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, every.rattlers)
+    assert new.phi == pytest.approx(every.phi, abs=1e-9)
+
+
+def test_forced_active_set_failure_falls_back_to_highs(monkeypatch, ls_fast_256):
+    """Every active-set attempt forced to fail: each LP falls back to HiGHS (interior point + certified vertex) and
+    the run reaches the same certificate as with the shortcut."""
+    import spherejam.calippso.lp as lp
+    import spherejam.calippso.run as run_module
+    from spherejam.calippso.solution import METHOD_CODES
+
+    ref = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    monkeypatch.setattr(run_module, "solve_active_set", lambda *args, **kwargs: None)
+    calls = []
+    certify = lp.solve_active_set
+    monkeypatch.setattr(lp, "solve_active_set", lambda *a, **k: calls.append(1) or certify(*a, **k))
+    forced = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    assert not np.any(forced.history["method"] == METHOD_CODES["active-set"])
+    assert len(calls) >= forced.iterations  # every LP went to HiGHS and had its interior point certified
+    assert_jammed(forced, 3)
+    assert {tuple(p) for p in forced.pairs.tolist()} == {tuple(p) for p in ref.pairs.tolist()}
+    assert forced.phi == pytest.approx(ref.phi, abs=1e-9)

@@ -1,0 +1,175 @@
+"""One LP solved by HiGHS (calippso/lp.py): infeasible LPs, warm starts, HiPO, IPX and simplex, the certified
+vertex instead of crossover, the row check of a vertex."""
+
+import math
+
+import numpy as np
+import pytest
+
+from spherejam.calippso.constraints import pair_vectors, pairs_in_cutoff
+from spherejam.calippso.lp import solve_lp
+from spherejam.calippso.run import run_calippso
+from spherejam.core.errors import InputError, SimulationError
+
+from certificate import assert_jammed
+from packings import fcc_packing
+
+
+def test_infeasible_lp_is_reported():
+    # an overlapping pair with no room to move: Gamma >= 1 cannot be reached
+    rij = np.array([[0.9, 0.0, 0.0]])
+    with pytest.raises(SimulationError, match="Infeasible"):
+        solve_lp(rij, np.array([1.0]), np.array([0]), np.array([1]), 2, s_bound=1e-3, pinned=1,
+                 inflation_bounds=(1.0, 4.0))
+
+
+def test_warm_started_lp_matches_cold_solve():
+    """Primal simplex from the previous LP's basis reaches the same optimum as interior point from scratch, also
+    when an active row of the previous LP is missing (the alien basis is repaired) and rows are new."""
+    rng = np.random.default_rng(7)
+    fcc = fcc_packing(3)
+    x = np.mod(fcc.positions + rng.uniform(-0.01, 0.01, fcc.positions.shape), fcc.box)
+    n, box = fcc.n, fcc.box
+    kw = dict(s_bound=0.05, pinned=0, inflation_bounds=(1.0, 1.2))
+
+    def rows(pos, drop=None):
+        i, j, _ = pairs_in_cutoff(pos, box, 1.35)
+        if drop is not None:
+            keep = (i * n + j) != drop
+            i, j = i[keep], j[keep]
+        return pair_vectors(pos, box, i, j), np.full(len(i), 0.97**2), i, j
+
+    first = solve_lp(*rows(x), n, **kw)
+    assert first.method == "ipm" and first.basis is not None
+    x2 = np.mod(x + 0.5 * first.s, box)
+    active = np.flatnonzero(first.duals > 0)
+    i, j = rows(x)[2:]
+    dropped = int(i[active[0]] * n + j[active[0]])
+    for drop in (None, dropped):
+        r2, s2, i2, j2 = rows(x2, drop)
+        cold = solve_lp(r2, s2, i2, j2, n, **kw)
+        warm = solve_lp(r2, s2, i2, j2, n, **kw, warm=first.basis)
+        assert cold.method == "ipm" and warm.method == "warm"
+        assert warm.inflation == pytest.approx(cold.inflation, abs=1e-12)
+        # KKT of the warm vertex (to the 1e-9 solver tolerance): sum lambda sigma^2 = 1, force balance where no s
+        # bound is active
+        assert np.sum(warm.duals * s2) == pytest.approx(1.0, abs=1e-8)
+        net = np.zeros((n, 3))
+        np.add.at(net, i2, warm.duals[:, None] * r2)
+        np.add.at(net, j2, -warm.duals[:, None] * r2)
+        free = np.all(np.abs(warm.s) < 0.05 * (1 - 1e-9), axis=1)
+        free[0] = False
+        mean_force = np.mean(warm.duals[warm.duals > 0] * np.linalg.norm(r2[warm.duals > 0], axis=1))
+        assert np.max(np.abs(net[free])) < 1e-6 * mean_force
+
+
+def force_lp(packing):
+    """The final (force) LP of a packing: rows within 2.7 radii, s bounded by R only, Gamma free."""
+    x, box = packing.positions, packing.box
+    i, j, _ = pairs_in_cutoff(x, box, 1.35)
+    return pair_vectors(x, box, i, j), (0.5 * (packing.diameters[i] + packing.diameters[j])) ** 2, i, j
+
+
+def test_hipo_is_available_and_really_runs(tmp_path, ls_jammed_256):
+    """HiPO needs highspy-extras; without it HiGHS rejects solver='hipo' (while 'ipm' silently stays IPX). The
+    HiGHS log proves which interior point ran."""
+    import highspy
+
+    assert highspy.Highs().setOptionValue("solver", "hipo") == highspy.HighsStatus.kOk
+    rij, sigma2, i, j = force_lp(ls_jammed_256)
+    for solver, mark in (("hipo", "Hipo: "), ("ipx", "Ipx: IPM")):
+        log = tmp_path / f"{solver}.log"
+        sol = solve_lp(rij, sigma2, i, j, 256, s_bound=0.5, pinned=0, inflation_bounds=(-math.inf, math.inf),
+                       solver=solver, options={"output_flag": True, "log_to_console": False, "log_file": str(log)})
+        assert sol.solver == solver and sol.method == "ipm"
+        text = log.read_text()
+        assert mark in text and ("Ipx: IPM" not in text if solver == "hipo" else "Hipo: " not in text)
+    with pytest.raises(InputError, match="solver"):
+        run_calippso(ls_jammed_256, solver="gurobi")
+
+
+@pytest.mark.parametrize("solver", ["hipo", "ipx"])
+def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
+    """The interior point's near-active rows, certified by the active-set solve, give the vertex crossover gives:
+    the same active rows, Gamma and duals (the vertex of a jammed packing's force LP is unique)."""
+    rij, sigma2, i, j = force_lp(ls_jammed_256)
+    kw = dict(s_bound=0.5, pinned=0, inflation_bounds=(-math.inf, math.inf), solver=solver)
+    crossed = solve_lp(rij, sigma2, i, j, 256, **kw)
+    vertex = solve_lp(rij, sigma2, i, j, 256, **kw, crossover=False)
+    assert crossed.method == "ipm" and vertex.method.startswith("vertex") and vertex.solver == solver
+    np.testing.assert_array_equal(vertex.duals > 0, crossed.duals > 0)
+    assert vertex.inflation == pytest.approx(crossed.inflation, abs=1e-12)
+    np.testing.assert_allclose(vertex.duals, crossed.duals, rtol=1e-6, atol=1e-12)
+    # the certified vertex carries a HiGHS basis: the next LP can warm-start from it
+    assert vertex.basis is not None and np.count_nonzero(vertex.basis.rows != 1) == np.count_nonzero(vertex.duals)
+
+
+def test_new_path_agrees_with_ipx_crossover(ls_jammed_256):
+    """HiPO + certified vertices (the default from N = 4096 on) and IPX + crossover (the default below) certify the
+    same jammed state: the same contact network and rattlers, force balance <= 1e-10; every LP's solver is recorded."""
+    from spherejam.calippso.solution import SOLVER_CODES
+
+    old = run_calippso(ls_jammed_256)  # solver="auto" at N = 256: IPX + crossover
+    assert old.packing.metadata["parameters"]["solver"] == "ipx"
+    new = run_calippso(ls_jammed_256, solver="hipo")
+    cold = run_calippso(ls_jammed_256, solver="hipo", warm_start=False, active_set=False)  # every LP: HiPO + vertex
+    assert old.packing.metadata["parameters"]["crossover"] is True
+    assert "vertex" not in old.counters["lp_methods"] and SOLVER_CODES["hipo"] not in old.history["solver"]
+    assert cold.counters["lp_methods"].get("vertex", 0) >= cold.iterations
+    for result in (old, new, cold):
+        assert_jammed(result, 3)
+        assert {tuple(p) for p in result.pairs.tolist()} == {tuple(p) for p in old.pairs.tolist()}
+        np.testing.assert_array_equal(result.rattlers, old.rattlers)
+        assert result.phi == pytest.approx(old.phi, abs=1e-10)
+        np.testing.assert_allclose(np.sort(result.forces), np.sort(old.forces), rtol=1e-5)
+    for result in (new, cold):
+        assert result.packing.metadata["parameters"]["solver"] == "hipo"
+        assert SOLVER_CODES["hipo"] in result.history["solver"]
+        assert sum(result.counters["lp_solvers"].values()) == result.iterations + 1  # incl. the force LP
+        assert np.all(result.history["cpu_time"] >= 0)
+
+
+def test_uncertified_vertex_falls_back_to_simplex_from_its_basis(monkeypatch, ls_jammed_256):
+    """When the interior point's vertex is not certified (forced here: the active-set solve refuses every
+    prediction), primal simplex from the predicted basis solves the LP instead of a second interior point, and the
+    run certifies the same jammed state as IPX + crossover: same contacts and rattlers, force balance <= 1e-10."""
+    import spherejam.calippso.lp as lp
+    from spherejam.calippso.solution import METHOD_CODES
+
+    old = run_calippso(ls_jammed_256, solver="ipx", crossover=True)
+    monkeypatch.setattr(lp, "solve_active_set", lambda *args, **kwargs: None)
+    starts, warm_basis = [], lp._warm_basis
+    monkeypatch.setattr(lp, "_warm_basis", lambda start, *args: starts.append(start) or warm_basis(start, *args))
+    new = run_calippso(ls_jammed_256, solver="hipo", crossover=False, warm_start=False, active_set=False)
+    methods = new.history["method"]
+    assert np.all(methods == METHOD_CODES["predicted"]) and new.counters["lp_methods"] == {
+        "predicted": new.iterations + 1}
+    assert len(starts) == new.iterations + 1  # every LP started from its predicted basis, none re-solved
+    assert_jammed(new, 3)
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in old.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, old.rattlers)
+    assert max(new.force_balance_residual, old.force_balance_residual) <= 1e-10
+    assert new.phi == pytest.approx(old.phi, abs=1e-10)
+    np.testing.assert_allclose(np.sort(new.forces), np.sort(old.forces), rtol=1e-5)
+
+
+def test_row_check_is_relative_to_the_pairs_sigma2():
+    # Two pairs, each exceeding its row by the same absolute e = 6.5e-9 (the reproduction run's case): for the pair of
+    # small spheres (sigma^2 = 0.13) that overlaps the step by ~2.5e-8, beyond the step's overlap guard, so the check
+    # must reject it; the pair of large spheres (sigma^2 = 1) overlaps by ~3e-9 and passes.
+    from spherejam.calippso.constraints import row_excess
+    from spherejam.calippso.lp import _vertex_problem
+
+    e = 6.5e-9
+    n = 2
+    for sigma2, rejected in ((0.13, True), (1.0, False)):
+        rij = np.array([[math.sqrt(sigma2), 0.0, 0.0]])  # touching pair at s = 0, Gamma = 1: the row holds exactly
+        pi, pj = np.array([0]), np.array([1])
+        s = np.zeros((n, 3))
+        inflation = 1.0 + e / sigma2  # sigma2 * Gamma exceeds |r|^2 by e
+        assert row_excess(rij, sigma2 * np.ones(1), pi, pj, s, inflation) == pytest.approx(e / sigma2, rel=1e-6)
+        problem = _vertex_problem(rij, sigma2 * np.ones(1), pi, pj, s, inflation, np.zeros(1), -np.ones((n, 3)),
+                                  np.ones((n, 3)), 1e-9)
+        assert (problem is not None and "row" in problem) is rejected
+        h = math.sqrt(1.0 / inflation) - 1.0  # the step's relative overlap of that pair
+        assert (-h > 1e-8) is rejected
