@@ -2,13 +2,21 @@
 # comes from EXP (spherejam.workflow.experiment), resources from spherejam.workflow.cost_model.
 import json
 import os
+import sys
 
 from snakemake.exceptions import WorkflowError
 
 from spherejam.core.errors import InputError
 from spherejam.workflow.config import load_config_file, validate_config
 from spherejam.workflow.cost_model import job_resources
-from spherejam.workflow.experiment import FIGURE_NAMES, WILDCARD_CONSTRAINTS, Experiment, GridRun, mls_command
+from spherejam.workflow.experiment import (
+    FIGURE_NAMES,
+    WILDCARD_CONSTRAINTS,
+    Experiment,
+    GridRun,
+    mls_command,
+    stale_manifest,
+)
 
 try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.workflow.config, and
     # the design (paths that must not collide)
@@ -19,6 +27,14 @@ try:  # the schema (filling in its defaults), the limits and consistency rules o
 except InputError as exc:
     raise WorkflowError(str(exc)) from None
 PATHS = EXP.paths
+
+# A manifest of another config (its metadata in .snakemake/ lost) is removed, so that it and the dataset, tables
+# and figures built from it are made again; the packings do not depend on it.
+_stale = stale_manifest(PATHS.manifest, config)
+if _stale:
+    os.remove(PATHS.manifest)
+    print(f"spherejam: {PATHS.manifest} was written for another config ({_stale}): removed, to be made again",
+          file=sys.stderr)
 
 
 wildcard_constraints:

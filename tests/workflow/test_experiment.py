@@ -1,7 +1,10 @@
 """The experiment design: validation-grid rates must be packings of the experiment; per-sigma extra rates; the
 workflow's paths, seeds and MLS command line come from it alone, unchanged from the results folders already made."""
 
+import json
 import re
+import subprocess
+import sys
 import tokenize
 from types import SimpleNamespace
 
@@ -11,7 +14,17 @@ from test_workflow import ROOT
 
 from spherejam import InputError
 from spherejam.workflow.cost_model import load_configs
-from spherejam.workflow.experiment import GRID_KEY, RUN_KEY, WILDCARD_CONSTRAINTS, Experiment, GridRun, Run, mls_command
+from spherejam.workflow.experiment import (
+    GRID_KEY,
+    RUN_KEY,
+    WILDCARD_CONSTRAINTS,
+    Experiment,
+    GridRun,
+    Run,
+    config_hash,
+    mls_command,
+    stale_manifest,
+)
 
 
 def tiny():
@@ -172,3 +185,22 @@ def test_dataset_inputs_follow_the_enabled_stages():
     cfg["analysis"]["enabled"] = False
     files = Experiment(cfg).dataset_inputs()
     assert len(files) == len(exp.runs()) * 2 + len(exp.grid_runs()) and not any("calippso" in f for f in files)
+
+
+def test_a_manifest_of_another_config_is_made_again(tmp_path):
+    """Without Snakemake's metadata (a new working directory, a moved results folder) a config change must still
+    remake the manifest, and so the dataset: the workflow removes a manifest whose config hash is not the config's."""
+    cfg = tiny()
+    cfg["results"] = str(tmp_path / "results")
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    manifest = tmp_path / "results" / "experiment.json"
+    manifest.parent.mkdir()
+    manifest.write_text(json.dumps({"config": {}, "config_hash": "0123456789abcdef"}))
+    now = config_hash({"n": 1})
+    assert stale_manifest(manifest, {"n": 1}) == f"config_hash 0123456789abcdef, the config's is {now}"
+    assert stale_manifest(tmp_path / "none.json", {"n": 1}) is None
+    r = subprocess.run([sys.executable, "-m", "snakemake", str(manifest), "-n", "--cores", "1", "--configfile",
+                        str(tmp_path / "c.yaml")], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "written for another config (config_hash 0123456789abcdef" in r.stderr
+    assert not manifest.exists() and "experiment_manifest" in r.stdout
