@@ -28,13 +28,16 @@ except InputError as exc:
     raise WorkflowError(str(exc)) from None
 PATHS = EXP.paths
 
-# A manifest of another config (its metadata in .snakemake/ lost) is removed, so that it and the dataset, tables
-# and figures built from it are made again; the packings do not depend on it.
+# A manifest of another config (Snakemake's metadata in .snakemake/ lost: a new working directory, a moved results
+# folder) is written anew here: newer than the dataset, it remakes the dataset, tables and figures from this config,
+# which Snakemake's params trigger would not do without that metadata. The packings do not depend on it.
 _stale = stale_manifest(PATHS.manifest, config)
 if _stale:
-    os.remove(PATHS.manifest)
-    print(f"spherejam: {PATHS.manifest} was written for another config ({_stale}): removed, to be made again",
-          file=sys.stderr)
+    from spherejam.workflow.dataset import write_manifest
+
+    write_manifest(json.loads(json.dumps(config)), PATHS.manifest)
+    print(f"spherejam: {PATHS.manifest} was written for another config ({_stale}): written anew, so the dataset, "
+          "tables and figures are made again", file=sys.stderr)
 
 
 wildcard_constraints:
