@@ -15,7 +15,7 @@ from spherejam.workflow.experiment import (
     Experiment,
     GridRun,
     mls_command,
-    stale_manifest,
+    renew_stale_manifest,
 )
 
 try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.workflow.config, and
@@ -31,13 +31,9 @@ PATHS = EXP.paths
 # A manifest of another config (Snakemake's metadata in .snakemake/ lost: a new working directory, a moved results
 # folder) is written anew here: newer than the dataset, it remakes the dataset, tables and figures from this config,
 # which Snakemake's params trigger would not do without that metadata. The packings do not depend on it.
-_stale = stale_manifest(PATHS.manifest, config)
-if _stale:
-    from spherejam.workflow.dataset import write_manifest
-
-    write_manifest(json.loads(json.dumps(config)), PATHS.manifest)
-    print(f"spherejam: {PATHS.manifest} was written for another config ({_stale}): written anew, so the dataset, "
-          "tables and figures are made again", file=sys.stderr)
+_renewed = renew_stale_manifest(PATHS.manifest, config)
+if _renewed:
+    print(_renewed, file=sys.stderr)
 
 
 wildcard_constraints:

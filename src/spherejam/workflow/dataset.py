@@ -426,9 +426,9 @@ def merge_datasets(parts: list, names: list[str] | None = None):
     different configs, a packing in two parts, or a cell of the experiment in no part."""
     import xarray as xr
 
-    names = names or [f"part {i + 1}" for i in range(len(parts))]
     if not parts:
         raise InputError("merge: give the datasets of the parts")
+    names = names or [f"part {i + 1}" for i in range(len(parts))]
     first = parts[0]
     for ds, name in zip(parts, names):
         if ds.attrs.get("config_hash") != first.attrs.get("config_hash"):
@@ -452,10 +452,10 @@ def merge_datasets(parts: list, names: list[str] | None = None):
     if missing:
         raise PackingFileError(f"merge: no part holds {', '.join(missing)}: build its dataset too (spherejam "
                                "dataset --n N --distribution KEY) and merge it")
-    merged = []
     def concat(sets, dim):
         return xr.concat(sets, dim=dim, data_vars="minimal", coords="minimal", compat="equals", join="outer")
 
+    merged = []
     packings = concat([_along(ds, PACKING_DIM) for ds in parts], PACKING_DIM)
     position = {k: i for i, k in enumerate(packings["key"].values.tolist())}
     merged.append(packings.isel({PACKING_DIM: [position[k] for k in order]}))

@@ -214,6 +214,19 @@ def stale_manifest(path: str | os.PathLike, config: dict[str, Any]) -> str | Non
     return None if recorded == now else f"config_hash {recorded}, the config's is {now}"
 
 
+def renew_stale_manifest(path: str | os.PathLike, config: dict[str, Any]) -> str | None:
+    """Write the manifest at ``path`` anew if it was written for another config (:func:`stale_manifest`): newer
+    than the dataset, it makes Snakemake remake the dataset, tables and figures. Returns the line to log, or None."""
+    why = stale_manifest(path, config)
+    if why is None:
+        return None
+    from .dataset import write_manifest  # only here: it imports numpy, which a Snakemake start does not need
+
+    write_manifest(json.loads(json.dumps(config)), path)
+    return (f"spherejam: {path} was written for another config ({why}): written anew, so the dataset, tables and "
+            "figures are made again")
+
+
 @dataclass(frozen=True)
 class Run:
     """One generated packing: protocol (``ls``/``fb``), distribution key ``dist`` (``sigma0.1`` or a name; a number
