@@ -15,8 +15,8 @@ from spherejam.workflow.experiment import (
     Experiment,
     GridRun,
     mls_command,
-    renew_stale_manifest,
 )
+from spherejam.workflow.manifest import renew_stale_manifest
 
 try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.workflow.config, and
     # the design (paths that must not collide)

@@ -53,3 +53,17 @@ def worst_overlap_all_images(packing: Packing) -> float:
         h[0, ~own] = -math.inf  # a sphere and itself, unshifted
         worst = max(worst, float(h.max()))
     return worst
+
+
+class Killed(Exception):
+    """A run cut short, as a kill would cut it (raised by :func:`kill_at`'s callback)."""
+
+
+def kill_at(window: int):
+    """A window callback that raises :class:`Killed` at ``window``: a checkpoint test's stand-in for a kill."""
+
+    def kill(w, stats):
+        if w == window:
+            raise Killed
+
+    return kill

@@ -11,6 +11,7 @@ import json
 import numpy as np
 import pytest
 
+from packings import Killed, kill_at
 from spherejam.core.errors import InputError
 from spherejam.core.rate_ladder import final_stage, ladder_rates, last_rate_floor, stage_rate
 from spherejam.core.seeding import poisson_packing
@@ -134,15 +135,8 @@ def test_checkpoint_resume_of_stages_is_identical(tmp_path):
     assert reference.stats.extras.stages > 3
     ckpt = tmp_path / "mls.h5"
 
-    class Killed(Exception):
-        pass
-
-    def kill(window, stats):
-        if window == 12:
-            raise Killed
-
     with pytest.raises(Killed):
-        find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, callback=kill, **QUICK)
+        find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, callback=kill_at(12), **QUICK)
     assert ckpt.exists()
     resumed = find_closest_jamming(start, seed=2, checkpoint=ckpt, checkpoint_interval=0.0, **QUICK)
     assert resumed.stats.resumed is True

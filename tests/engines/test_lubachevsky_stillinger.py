@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from packings import Killed, kill_at
 from spherejam.core.errors import InputError
 from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
@@ -231,16 +232,9 @@ def test_checkpoint_resume_finishes_identically(tmp_path):
     reference = run_ls(packing, 0.05, seed=4, progress_interval=1e9)
     ckpt = tmp_path / "ls.ckpt.h5"
 
-    class Killed(Exception):
-        pass
-
-    def kill_at_window_6(window, stats):
-        if window == 6:
-            raise Killed
-
     with pytest.raises(Killed):
         run_ls(packing, 0.05, seed=4, checkpoint=ckpt, checkpoint_interval=0.0, progress_interval=1e9,
-               callback=kill_at_window_6)
+               callback=kill_at(6))
     assert ckpt.exists()
     resumed = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, checkpoint_interval=0.0, progress_interval=1e9)
     assert resumed.stats.resumed is True

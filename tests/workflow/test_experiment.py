@@ -1,7 +1,6 @@
 """The experiment design: validation-grid rates must be packings of the experiment; per-sigma extra rates; the
 workflow's paths, seeds and MLS command line come from it alone, unchanged from the results folders already made."""
 
-import json
 import re
 import tokenize
 from types import SimpleNamespace
@@ -19,9 +18,7 @@ from spherejam.workflow.experiment import (
     Experiment,
     GridRun,
     Run,
-    config_hash,
     mls_command,
-    stale_manifest,
 )
 
 
@@ -183,13 +180,3 @@ def test_dataset_inputs_follow_the_enabled_stages():
     cfg["analysis"]["enabled"] = False
     files = Experiment(cfg).dataset_inputs()
     assert len(files) == len(exp.runs()) * 2 + len(exp.grid_runs()) and not any("calippso" in f for f in files)
-
-
-def test_stale_manifest_names_the_hashes(tmp_path):
-    manifest = tmp_path / "experiment.json"
-    manifest.write_text(json.dumps({"config": {}, "config_hash": "0123456789abcdef"}))
-    now = config_hash({"n": 1})
-    assert stale_manifest(manifest, {"n": 1}) == f"config_hash 0123456789abcdef, the config's is {now}"
-    assert stale_manifest(tmp_path / "none.json", {"n": 1}) is None
-    manifest.write_text(json.dumps({"config": {}, "config_hash": now}))
-    assert stale_manifest(manifest, {"n": 1}) is None

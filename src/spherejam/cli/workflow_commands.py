@@ -84,7 +84,7 @@ def register(sub) -> None:
 def _manifest(args) -> int:
     import json
 
-    from ..workflow.dataset import write_manifest
+    from ..workflow.manifest import write_manifest
 
     check_outputs({"-o/--output": args.output})
     try:

@@ -34,7 +34,7 @@ from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
 from ..engines.result import RunStats, stats_from_metadata
 from .config import check_config
-from .experiment import Experiment, GridRun, Part, Run, config_hash, fmt, shorthand_key
+from .experiment import Experiment, GridRun, Part, Run, fmt, shorthand_key
 
 #: name -> (long_name, units) of the variables this module writes (structure/CALiPPSO add their own).
 VARIABLES: dict[str, tuple[str, str]] = {
@@ -90,19 +90,6 @@ COORDS: dict[str, tuple[str, str]] = {
     "initial_rate": ("MLS initial compression rate", "1"),
     "final_rate": ("MLS final compression rate", "1"),
 }
-
-
-def write_manifest(config: dict[str, Any], path: str | os.PathLike) -> Path:
-    """Write the resolved experiment (config, hash, provenance) that the dataset builder reads.
-
-    The config passes :func:`spherejam.workflow.config.check_config` (every limit and consistency rule) and makes
-    an :class:`Experiment` (the design's own checks) first."""
-    check_config(config)
-    Experiment(config)  # its constructor checks the design (the sigmas of the extra rates and of the grid)
-    manifest = {"config": config, "config_hash": config_hash(config), "provenance": provenance()}
-    with atomic_output(path, ".json") as tmp:
-        Path(tmp).write_text(json.dumps(manifest, indent=1, sort_keys=True, default=str))
-    return Path(path)
 
 
 def _attrs(path: Path) -> dict[str, Any]:

@@ -34,7 +34,6 @@ import hashlib
 import itertools
 import json
 import math
-import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -196,35 +195,6 @@ def distributions_of(config: dict[str, Any]) -> list[Distribution]:
 
 def config_hash(config: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-
-def stale_manifest(path: str | os.PathLike, config: dict[str, Any]) -> str | None:
-    """Why the manifest at ``path`` no longer describes ``config`` (another config's hash, or unreadable), or None
-    if it does or does not exist. Snakemake reruns the manifest job on a config change only while its metadata
-    (``.snakemake/``) lasts; the workflow asks this at every start, so a moved results folder or a new working
-    directory cannot leave a dataset built from an older config."""
-    path = Path(path)
-    if not path.is_file():
-        return None
-    try:
-        recorded = json.loads(path.read_text()).get("config_hash")
-    except (OSError, ValueError, AttributeError):
-        return "unreadable"
-    now = config_hash(config)
-    return None if recorded == now else f"config_hash {recorded}, the config's is {now}"
-
-
-def renew_stale_manifest(path: str | os.PathLike, config: dict[str, Any]) -> str | None:
-    """Write the manifest at ``path`` anew if it was written for another config (:func:`stale_manifest`): newer
-    than the dataset, it makes Snakemake remake the dataset, tables and figures. Returns the line to log, or None."""
-    why = stale_manifest(path, config)
-    if why is None:
-        return None
-    from .dataset import write_manifest  # only here: it imports numpy, which a Snakemake start does not need
-
-    write_manifest(json.loads(json.dumps(config)), path)
-    return (f"spherejam: {path} was written for another config ({why}): written anew, so the dataset, tables and "
-            "figures are made again")
 
 
 @dataclass(frozen=True)
