@@ -13,7 +13,7 @@ import pytest
 
 from packings import Killed, kill_at
 from spherejam.core.errors import InputError
-from spherejam.core.rate_ladder import final_stage, ladder_rates, last_rate_floor, stage_rate
+from spherejam.core.rate_ladder import final_stage, ladder_rates, last_rate_floor, stage_count, stage_rate
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import MLSController, find_closest_jamming
 from spherejam.engines.event_driven import WindowStats
@@ -283,6 +283,19 @@ def test_rate_ladder_is_gamma0_over_f_to_the_k_and_the_engine_compresses_at_it()
     reason, trace = _feed(c, [2e12, 1.0] * len(rates))
     assert reason == "final_rate" and c.final_stage == len(rates) - 1
     assert [3.3] + [rate for rate, _ in trace[:-1] if rate > 0] == rates  # the last window keeps its rate
+    # its length without walking it, as the config check needs for a factor near 1
+    for g0, f, gf in [(10.0, 2.0, 1e-4), (3.3, 1.5, 1e-3), (1.0, 1.01, 1e-5), (5.0, 7.0, 5.0), (1e3, 1.3, 2e-8)]:
+        assert stage_count(g0, f, gf) == len(ladder_rates(g0, f, gf))
+
+
+def test_a_ladder_of_too_many_rates_is_refused_before_it_is_walked():
+    from spherejam.core.errors import InputError
+    from spherejam.core.validation import MLS_MAX_STAGES, check_mls
+
+    check_mls(10.0, 1.002, 1e-4)  # 5758 rates: allowed
+    with pytest.raises(InputError, match=r"^mls.decrease_factor=1.0000001: .* has 115129\d{3} rates \(at most "):
+        check_mls(10.0, 1.0000001, 1e-4)
+    assert stage_count(10.0, 1.0000001, 1e-4) > MLS_MAX_STAGES
 
 
 def test_cli_mls_stall_flags(tmp_path):

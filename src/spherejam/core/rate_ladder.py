@@ -7,6 +7,8 @@ take them from here. Standard library only: Snakemake imports the cost model for
 
 from __future__ import annotations
 
+import math
+
 
 def stage_rate(initial_rate: float, decrease_factor: float, k: int) -> float:
     """gamma_k = gamma_0 / f^k, the rate after k decreases (k = 0: gamma_0).
@@ -32,3 +34,12 @@ def ladder_rates(initial_rate: float, decrease_factor: float, final_rate: float)
 def last_rate_floor(decrease_factor: float, final_rate: float) -> float:
     """A lower bound of gamma_K without walking the ladder: gamma_K ~ gamma_{K-1} / f > final_rate / f."""
     return final_rate / decrease_factor
+
+
+def stage_count(initial_rate: float, decrease_factor: float, final_rate: float) -> int:
+    """K + 1, the number of rates of the ladder, without walking it: the smallest K with f^K >= gamma_0 / gamma_f.
+
+    Within one of final_stage, whose loop this replaces where the ladder may be long (f near 1)."""
+    if final_rate >= initial_rate:
+        return 1
+    return math.ceil(math.log(initial_rate / final_rate) / math.log(decrease_factor)) + 1

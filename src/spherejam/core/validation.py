@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import InputError
-from .rate_ladder import last_rate_floor
+from .rate_ladder import last_rate_floor, stage_count
 
 #: Largest N: 10^7 spheres take ~1 GB in the engines' arrays; the paper uses 10^4.
 N_MAX = 10_000_000
@@ -156,11 +156,15 @@ BOX_MIN, BOX_MAX = 1e-50, 1e50
 BOX_SIDE = Bound(BOX_MIN, BOX_MAX)
 #: The HiGHS solvers CALiPPSO's LPs can be sent to (here, not in calippso.py, so that the CLI need not load numba).
 LP_SOLVERS = ("hipo", "ipx", "simplex")
+#: The most rates an MLS ladder may have. The paper's has 18 (gamma_0 = 10, f = 2, gamma_f = 1e-4); a factor just
+#: above 1 would make ~1e8, which the engine and the cost model would walk one by one.
+MLS_MAX_STAGES = 10_000
 
 
 def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
               names: tuple[str, str, str] = ("mls.initial_rate", "mls.decrease_factor", "mls.final_rate")) -> None:
-    """MLS consistency: final rate <= initial rate, and the last stage's rate (>= final_rate/f) still ends.
+    """MLS consistency: final rate <= initial rate, the last stage's rate (>= final_rate/f) still ends, and the
+    ladder has at most MLS_MAX_STAGES rates.
 
     ``names`` are how the three values are called where they came from (config fields or CLI options)."""
     g0, f, gf = names
@@ -170,3 +174,7 @@ def check_mls(initial_rate: float, decrease_factor: float, final_rate: float,
     if floor < LS_RATE_MIN:
         raise InputError(f"{f}={decrease_factor!r}: with {gf} {final_rate!r} the last stage may run at gamma = "
                          f"{floor:.3g} < {LS_RATE_MIN:g}, which never jams")
+    stages = stage_count(initial_rate, decrease_factor, final_rate)
+    if stages > MLS_MAX_STAGES:
+        raise InputError(f"{f}={decrease_factor!r}: from {g0} {initial_rate!r} to {gf} {final_rate!r} the ladder "
+                         f"has {stages} rates (at most {MLS_MAX_STAGES}); use a larger factor")
