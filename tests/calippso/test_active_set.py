@@ -100,6 +100,42 @@ def test_active_set_pivots_a_bound_in_when_the_prediction_overshoots_it(ls_jamme
     assert excess.min() >= -1e-12 and np.all(sol.duals >= 0)
 
 
+def test_a_vertex_held_at_its_bound_predicts_the_lp_with_a_wider_bound(ls_jammed_256):
+    """An LP whose vertex holds stable components at a tight s bound is not isostatic by its contacts, yet its
+    contacts and held components are one square system: the next LP, with a wider bound (docs/calippso.md §1.5),
+    starts from it, and pivots release the held components' bound rows that no longer bind. Here the bound is
+    wide enough for the unbounded optimum, so every one must be released; the result is HiGHS's optimum. (With held
+    components as dropped unknowns, as before, this failed: their bound multipliers came out negative.)"""
+    from spherejam.calippso.active_set import solve_active_set, vertex_prediction
+    from spherejam.calippso.network import contact_network
+
+    n = ls_jammed_256.n
+    rij, sigma2, i, j = _main_loop_lp(ls_jammed_256)
+    wide = solve_lp(rij, sigma2, i, j, n, s_bound=0.05, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    wide_rattler = contact_network(rij, sigma2, i, j, wide.duals, n, 3, 1e-10)[1]
+    tight = 0.25 * float(np.max(np.abs(wide.s[~wide_rattler])))
+    bounded = solve_lp(rij, sigma2, i, j, n, s_bound=tight, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    contact, _, _, isostatic, _ = contact_network(rij, sigma2, i, j, bounded.duals, n, 3, 1e-10)
+    assert not isostatic  # a network short of its held components
+    predicted = vertex_prediction(contact, bounded.duals, bounded.s, tight, rij, i, j, n, 0)
+    assert predicted is not None and np.count_nonzero(predicted[2]) > 0
+    why: list[str] = []
+    sol = solve_active_set(rij, sigma2, i, j, n, predicted[0], predicted[1], s_bound=8.0 * tight, pinned=0,
+                           inflation_bounds=(1.0, 2.0), max_pivots=500, fixed=predicted[2], why=why)
+    assert sol is not None, why
+    assert not np.any(sol.held)  # every held component released
+    ref = solve_lp(rij, sigma2, i, j, n, s_bound=8.0 * tight, pinned=0, inflation_bounds=(1.0, 2.0), solver="ipx")
+    assert sol.inflation == pytest.approx(ref.inflation, rel=0, abs=1e-12)
+    assert sol.inflation == pytest.approx(wide.inflation, rel=0, abs=1e-12)
+    excess = np.einsum("ij,ij->i", rij, rij + 2.0 * (sol.s[i] - sol.s[j])) - sol.inflation * sigma2
+    assert excess.min() >= -1e-12 and np.all(sol.duals >= 0)
+    # the same prediction with the bound kept: the bound rows stay, and the vertex is that LP's optimum
+    same = solve_active_set(rij, sigma2, i, j, n, predicted[0], predicted[1], s_bound=tight, pinned=0,
+                            inflation_bounds=(1.0, 2.0), max_pivots=500, fixed=predicted[2], why=why)
+    assert same is not None, why
+    assert same.inflation == pytest.approx(bounded.inflation, rel=0, abs=1e-12) and np.any(same.held)
+
+
 @pytest.fixture(scope="module")
 def ls_fast_256():
     """A fast LS packing (rate 1e-2) at p = 1e12: its LPs creep, their contact networks change from LP to LP."""
@@ -156,3 +192,24 @@ def test_forced_active_set_failure_falls_back_to_highs(monkeypatch, ls_fast_256)
     assert_jammed(forced, 3)
     assert {tuple(p) for p in forced.pairs.tolist()} == {tuple(p) for p in ref.pairs.tolist()}
     assert forced.phi == pytest.approx(ref.phi, abs=1e-9)
+
+
+def test_lps_after_a_bound_held_lp_are_shortcuts_with_the_same_certificate(ls_jammed_256):
+    """A bound a fifth of the first LP's step (fixed, so it never widens): LPs 1-7 end with stable components held
+    at it and are not isostatic by their contacts (as the first LPs of N = 10^4 LS outputs, docs/calippso.md §9).
+    Each such LP predicts the next, and the active-set solve certifies it; before, every one went to HiGHS. The LPs,
+    the jammed state and its network are those of a run where HiGHS solves every LP."""
+    from spherejam.calippso.solution import METHOD_CODES
+
+    bound = 0.2 * 5.79e-4  # the first LP's largest step is 5.79e-4 diameters
+    new = run_calippso(ls_jammed_256, s_bound=bound, warm_start=False, solver="ipx")
+    every = run_calippso(ls_jammed_256, s_bound=bound, warm_start=False, solver="ipx", active_set=False)
+    h = new.history
+    held = (h["isostatic"][:-1] == 0) & (h["bound_active"][:-1] > 0)
+    assert np.count_nonzero(held) >= 3
+    assert np.all(h["method"][1:][held] == METHOD_CODES["active-set"])
+    assert new.iterations == every.iterations
+    assert_jammed(new, 3)
+    assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in every.pairs.tolist()}
+    np.testing.assert_array_equal(new.rattlers, every.rattlers)
+    assert new.phi == pytest.approx(every.phi, abs=1e-9)

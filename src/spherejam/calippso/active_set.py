@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..core.rattlers import rattler_mask
-from .constraints import constraint_rows, pair_keys
+from .constraints import constraint_rows, pair_keys, particle_force_sums
 from .highs import highs_model
 from .solution import LPSolution
 
@@ -24,6 +24,37 @@ def network_prediction(contact, rattler, pi, pj, n):
     :func:`solve_active_set` takes."""
     stable = contact & ~rattler[pi] & ~rattler[pj]
     return np.sort(pair_keys(pi, pj, n)[stable]), rattler.copy()
+
+
+def vertex_prediction(contact, duals, s, s_bound, rij, pi, pj, n, pinned):
+    """The next LP's predicted active set from this LP's vertex when some of its stable s components are held at
+    their bound: ``(contact keys, rattler mask, held)`` (``held`` (N, d): -1 / +1 at the lower / upper bound, else 0),
+    or None unless the contacts among stable particles and the held components are together one square system
+    (d (N_s - 1) + 1 unknowns).
+
+    A component is held if it is at its bound and the contact forces on it do not balance (> 1e-6 of the mean force:
+    the bound pushes back); a rattler's components rest at a bound with no force. Particles are stable if they are
+    in the (d+1)-core of the contact graph with the bounds as a wall, so a particle pressed against its bound is not a
+    rattler. The next LP has a wider bound (docs §1.5): the held components are bound rows of the predicted basis,
+    which :func:`solve_active_set` releases by pivots where they no longer bind."""
+    dim = s.shape[1]
+    weight = np.where(contact, duals, 0.0)
+    if not np.any(weight > 0):
+        return None
+    mean_force = float(np.mean(weight[weight > 0] * np.linalg.norm(rij[weight > 0], axis=1)))
+    pushed = np.abs(particle_force_sums(rij, weight, pi, pj, n)) > 1e-6 * mean_force
+    held = np.where(pushed & (np.abs(s) >= (1.0 - 1e-9) * s_bound), np.sign(s), 0).astype(np.int8)
+    held[pinned] = 0
+    wall_i = np.nonzero(held)[0]
+    ci = np.concatenate([pi[contact], wall_i])
+    cj = np.concatenate([pj[contact], np.full(wall_i.size, n)])  # node n: the wall, never a rattler
+    rattler = rattler_mask(n + 1, ci, cj, dim + 1)[:n]
+    held[rattler] = 0
+    stable = contact & ~rattler[pi] & ~rattler[pj]
+    n_stable = n - int(np.count_nonzero(rattler))
+    if int(np.count_nonzero(stable)) + int(np.count_nonzero(held)) != dim * (n_stable - 1) + 1:
+        return None
+    return np.sort(pair_keys(pi, pj, n)[stable]), rattler, held
 
 
 def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
@@ -207,8 +238,9 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     """Solve the LP from a predicted active set by simplex pivots; None if that does not work out.
 
     The prediction is the isostatic contact network of the previous LP (``contact_keys``: the pair keys of its
-    contacts, ``rattler`` its rattlers). Its rows, as equalities, form a square system in the displacements of the
-    stable, non-pinned particles and Gamma (N_c = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
+    contacts, ``rattler`` its rattlers), or a network with components held at their bound (``fixed``, below). Its
+    rows, as equalities, form a square system in the displacements of the stable, non-pinned particles and Gamma
+    (N_c + held components = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
     transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
     below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
     others tight and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows
@@ -221,8 +253,9 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     interior point, whose rattlers sit inside their cages; default 0) and are pushed out of rows they violate, or
     placed by a small LP when pushing does not settle them; rattlers that find no place join the network with their
     d tightest rows and the solve starts again (:data:`MAX_PROMOTIONS` times). ``fixed`` ((N, d) of -1 / 0 / +1)
-    predicts s components of stable particles held at their lower / upper s bound: they leave the unknowns (one
-    contact fewer each), and their bound multipliers must come out >= 0, else None. Anything else -- a singular
+    predicts s components of stable particles held at their lower / upper s bound: each one's bound row starts in the
+    basis in place of a contact, and leaves it by a pivot like a contact where its multiplier is negative (the
+    returned solution's ``held`` says which components the final vertex holds). Anything else -- a singular
     system, more than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reasons are
     appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active set barely
     changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
@@ -279,9 +312,8 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         system = _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
                                  fixed)
         u, lam, pivots, relaxed, bound_pivots = _pivot(system, feasibility, 10 if max_pivots is None else max_pivots)
-        _check_held_components(system, lam)
         inflation = max(float(u[-1]), inflation_bounds[0])
-        s = _vertex_displacements(system, u, rattler_s, s_bound, pinned)
+        s = _vertex_displacements(system, u, rattler_s, s_bound, pinned, (n, rij.shape[1]))
         contact_rows = system.stable_rows[system.basis[system.basis < system.m_pair]]
         active = np.zeros(len(pi), dtype=bool)
         active[contact_rows] = True
@@ -294,7 +326,8 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
     duals[contact_rows] = np.maximum(lam[system.basis < system.m_pair], 0.0)
     method = f"active-set+{pivots}" + (f"+{relaxed}relaxed" if relaxed else "") + (
         f"+{bound_pivots}bounds" if bound_pivots else "")
-    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method)
+    held = _held_at_vertex(system, n, rij.shape[1])
+    return LPSolution(s, inflation, duals, time.perf_counter() - t0, method, held=held)
 
 
 class _NoVertex(Exception):
@@ -305,7 +338,8 @@ class _NoVertex(Exception):
 class _ContactSystem:
     """A predicted vertex as a linear system: every constraint of the LP among stable particles as a row a . u <= b
     in the unknowns u (the free s components, then Gamma), the ``m_pair`` pair rows first, then the bounds of the
-    unknowns; the rows of the predicted contacts are the initial ``basis``."""
+    unknowns; the rows of the predicted contacts and of the components predicted at a bound are the initial
+    ``basis``."""
 
     a: Any  # (rows, nu) scipy CSR
     rhs: np.ndarray
@@ -313,12 +347,6 @@ class _ContactSystem:
     basis: np.ndarray  # rows of a, one per unknown: replaced in place by the pivots
     stable_rows: np.ndarray  # the LP's rows among stable particles, in the order of a's pair rows
     free_comp: np.ndarray  # (N d,) the s components that are unknowns
-    fixed: np.ndarray  # (N, d) -1 / 0 / +1: components held at their lower / upper bound
-    # the pair rows' entries (constraint_rows) over all N d + 1 columns, their row, and those on a held component
-    index: np.ndarray
-    value: np.ndarray
-    row_id: np.ndarray
-    held: np.ndarray
 
 
 def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
@@ -331,35 +359,36 @@ def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinn
         raise _NoVertex("the pinned particle is predicted a rattler")
     free = ~rattler
     free[pinned] = False
-    fixed = np.zeros((n, dim), dtype=np.int8) if fixed is None else np.where(free[:, None], fixed, 0).astype(np.int8)
-    # unknowns: the s components of stable, non-pinned particles not held at a bound, then Gamma
-    free_comp = np.repeat(free, dim) & (fixed.ravel() == 0)
+    # unknowns: the s components of stable, non-pinned particles, then Gamma
+    free_comp = np.repeat(free, dim)
     col_of = np.full(n * dim + 1, -1, dtype=np.int64)
     col_of[:-1][free_comp] = np.arange(np.count_nonzero(free_comp))
     nu = int(np.count_nonzero(free_comp)) + 1
     col_of[-1] = nu - 1
-    if contact_keys.size != nu:  # not isostatic: no square system
-        raise _NoVertex(f"{contact_keys.size} predicted contacts for {nu} unknowns")
-    # the rows among stable particles, in the reduced columns (pinned particle and fixed components dropped)
+    # a component predicted at its bound is that bound's row in the basis, which a pivot can release
+    held = np.zeros(n * dim, dtype=np.int8) if fixed is None else np.where(free_comp, np.ravel(fixed), 0)
+    held_cols = col_of[:-1][held != 0]
+    held_rows = np.where(held[held != 0] > 0, held_cols, (nu - 1) + held_cols)  # after the pair rows, see below
+    if contact_keys.size + held_rows.size != nu:  # not isostatic: no square system
+        raise _NoVertex(f"{contact_keys.size} predicted contacts and {held_rows.size} held components for {nu} "
+                        "unknowns")
+    # the rows among stable particles, in the reduced columns (the pinned particle dropped)
     stable_rows = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     start, index, value, rhs = constraint_rows(rij[stable_rows], sigma2[stable_rows], pi[stable_rows],
                                                pj[stable_rows], n)
     keep = col_of[index] >= 0
     row_id = np.repeat(np.arange(stable_rows.size), np.diff(start))
     a_all = csr_matrix((value[keep], (row_id[keep], col_of[index][keep])), shape=(stable_rows.size, nu))
-    s_fixed = np.append(fixed.ravel() * float(s_bound), 0.0)
-    held = s_fixed[index] != 0.0
-    if np.any(held):  # a held component moves to the right-hand side
-        rhs = rhs - np.bincount(row_id[held], weights=value[held] * s_fixed[index][held], minlength=rhs.size)
-    # the bounds of the unknowns as rows too (s_c <= s_bound, -s_c <= s_bound, Gamma within its bounds, after the
-    # pair rows), so that a bound a pivot runs into enters the basis like a contact (docs §5.4)
+    # the bounds of the unknowns as rows too (s_c <= s_bound for every free component c, then -s_c <= s_bound, then
+    # Gamma within its bounds, after the pair rows), so that a bound a pivot runs into enters the basis like a
+    # contact (docs §5.4)
     a_all, rhs_all = _with_bound_rows(a_all, rhs, nu, s_bound, inflation_bounds)
     key = pair_keys(pi, pj, n)[stable_rows]
     basis = np.flatnonzero(np.isin(key, contact_keys))
-    if basis.size != nu:  # a predicted contact left the cutoff or involves a particle that is now a rattler
-        raise _NoVertex(f"{nu - basis.size} predicted contacts are not rows among stable particles")
-    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, free_comp, fixed, index, value, row_id,
-                          held)
+    if basis.size != contact_keys.size:  # a predicted contact left the cutoff or involves a particle now a rattler
+        raise _NoVertex(f"{contact_keys.size - basis.size} predicted contacts are not rows among stable particles")
+    basis = np.concatenate([basis, stable_rows.size + held_rows])
+    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, free_comp)
 
 
 def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
@@ -460,30 +489,24 @@ def _primal_pivot(binv: BasisInverse, a_all, k: int, slack, pivot: int, m_pair: 
     return int(blocking[j] >= m_pair)
 
 
-def _check_held_components(system: _ContactSystem, lam) -> None:
-    """Raise :class:`_NoVertex` unless every held s component's bound multiplier is >= 0: mu = -(A^T lambda)_j at
-    an upper bound, +(A^T lambda)_j at a lower one."""
-    held, index, value, row_id, fixed = system.held, system.index, system.value, system.row_id, system.fixed
-    if np.any(held):
-        row_lam = np.zeros(system.stable_rows.size)
-        pair = system.basis < system.m_pair
-        row_lam[system.basis[pair]] = lam[pair]
-        at = np.zeros(fixed.size + 1)
-        np.add.at(at, index[held], value[held] * row_lam[row_id[held]])
-        comps = np.flatnonzero(fixed.ravel())
-        if np.any(-fixed.ravel()[comps] * at[comps] < 0.0):
-            raise _NoVertex("a held s component has a negative bound multiplier")
-
-
-def _vertex_displacements(system: _ContactSystem, u, rattler_s, s_bound: float, pinned: int) -> np.ndarray:
-    """The vertex's s (N, d): the unknowns ``u``, the held components at their bound, the pinned particle at 0, the
-    rattlers at ``rattler_s`` (within the bounds; 0 if None)."""
-    fixed = system.fixed
-    s = np.zeros(fixed.shape) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
+def _vertex_displacements(system: _ContactSystem, u, rattler_s, s_bound: float, pinned: int,
+                          shape: tuple[int, int]) -> np.ndarray:
+    """The vertex's s (N, d): the unknowns ``u``, the pinned particle at 0, the rattlers at ``rattler_s`` (within the
+    bounds; 0 if None)."""
+    s = np.zeros(shape) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
     s[pinned] = 0.0
     s.ravel()[system.free_comp] = np.clip(u[:-1], -s_bound, s_bound)  # round-off of an active bound row
-    s[fixed != 0] = fixed[fixed != 0] * float(s_bound)
     return s
+
+
+def _held_at_vertex(system: _ContactSystem, n: int, dim: int) -> np.ndarray:
+    """(N, d) -1 / +1 where the final basis holds an s component at its lower / upper bound, else 0."""
+    k = int(np.count_nonzero(system.free_comp))
+    bound = system.basis[(system.basis >= system.m_pair) & (system.basis < system.m_pair + 2 * k)] - system.m_pair
+    held = np.zeros(n * dim, dtype=np.int8)
+    comps = np.flatnonzero(system.free_comp)
+    held[comps[bound % k]] = np.where(bound < k, 1, -1)
+    return held.reshape(n, dim)
 
 
 def _slack(rij, sigma2, pi, pj, s, inflation):

@@ -392,7 +392,7 @@ def _certified_vertex(h, model: _Model, tolerance: float):
         return None, predicted, f"its near-active rows are not a certified vertex ({why_not})"
     problem = model.problem(vertex.s, vertex.inflation, vertex.duals, tolerance)
     if problem is None:
-        vertex.basis = _vertex_basis(vertex, guess[1], guess[2], pinned, keys)
+        vertex.basis = _vertex_basis(vertex, guess[1], vertex.held, pinned, keys)  # its bounds after the pivots
         vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
     return vertex, predicted, problem
 

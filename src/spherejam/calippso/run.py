@@ -31,7 +31,7 @@ from ..core.history import History
 from ..core.neighbours import pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
-from .active_set import MAX_PIVOTS, network_prediction, solve_active_set
+from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
 from .constraints import cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
@@ -564,9 +564,10 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     if loop.predicted is not None and (loop.basis is None or lp.regime == 1):
         t_try = time.perf_counter()
         why: list[str] = []
-        sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted, s_bound=lp.s_bound,
+        keys, rattler, held = loop.predicted
+        sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, keys, rattler, s_bound=lp.s_bound,
                                pinned=loop.pinned, inflation_bounds=(1.0, lp.inflation_max), why=why,
-                               max_pivots=MAX_PIVOTS if loop.basis is None else None)
+                               max_pivots=MAX_PIVOTS if loop.basis is None else None, fixed=held)
         if sol is None:
             tally.lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
             _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
@@ -613,13 +614,19 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
 
 
 def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
-    """Check: the contact network of the LP's duals (docs §3); an isostatic one predicts the next LP's vertex
-    (docs §5.4). Returns ``(contact mask, rattler mask, n_contacts, isostatic, contact changes)``, the last the
-    contacts among non-rattlers gained or lost since the previous LP (-1 for the first)."""
+    """Check: the contact network of the LP's duals (docs §3); an isostatic one predicts the next LP's vertex, and so
+    does one that is isostatic with the components held at the s bound (docs §5.4). Returns ``(contact mask,
+    rattler mask, n_contacts, isostatic, contact changes)``, the last the contacts among non-rattlers gained or lost
+    since the previous LP (-1 for the first)."""
     contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.n,
                                                                  cfg.dim, cfg.zero_force)
     network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
-    loop.predicted = network if cfg.active_set and isostatic else None
+    loop.predicted = None
+    if cfg.active_set and isostatic:
+        loop.predicted = (*network, None)
+    elif cfg.active_set:
+        loop.predicted = vertex_prediction(contact, sol.duals, sol.s, lp.s_bound, lp.rij, lp.pi, lp.pj, cfg.n,
+                                           loop.pinned)
     changes = -1 if loop.contacts is None else int(np.setxor1d(loop.contacts, network[0], assume_unique=True).size)
     loop.contacts = network[0]
     return contact, rattler, n_contacts, isostatic, changes
@@ -682,8 +689,8 @@ def _force_lp(run: _Run, cfg: _Settings, fine_tune: bool):
     if fine_tune:
         try:
             fine = None
-            if loop.predicted is not None:
-                fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted, s_bound=R,
+            if loop.predicted is not None and loop.predicted[2] is None:  # an isostatic network, no bound held
+                fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted[:2], s_bound=R,
                                         pinned=loop.pinned, inflation_bounds=(-math.inf, math.inf),
                                         max_pivots=MAX_PIVOTS if loop.basis is None else None)
             if fine is None:
@@ -715,7 +722,9 @@ class _LoopState:
     pinned: int
     prev_s_bound: float = 0.0  # the previous LP's s bound (0: none yet)
     bound_hit: bool = False  # a stable particle ended the previous LP at its s bound
-    predicted: tuple[np.ndarray, np.ndarray] | None = None  # (contact keys, rattler mask) of an isostatic last LP
+    # (contact keys, rattler mask, held components or None) of a last LP that was isostatic, or isostatic with the
+    # components held at its s bound (docs §5.4)
+    predicted: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None
     basis: LPBasis | None = None  # HiGHS basis of the last HiGHS-solved LP, the next one's warm start
     warm_failures: int = 0  # failed warm starts in a row
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
@@ -725,6 +734,8 @@ class _LoopState:
         out = {"positions": x, "diameters": dia}
         if self.predicted is not None:
             out.update(predicted_keys=self.predicted[0], predicted_rattlers=self.predicted[1])
+            if self.predicted[2] is not None:
+                out.update(predicted_held=self.predicted[2])
         if self.basis is not None:
             out.update(basis_keys=self.basis.keys, basis_rows=self.basis.rows, basis_cols=self.basis.cols)
         if self.contacts is not None:
@@ -740,7 +751,8 @@ class _LoopState:
     def restore(cls, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> _LoopState:
         predicted = None
         if "predicted_keys" in arrays:
-            predicted = (arrays["predicted_keys"], arrays["predicted_rattlers"].astype(bool))
+            predicted = (arrays["predicted_keys"], arrays["predicted_rattlers"].astype(bool),
+                         arrays["predicted_held"].astype(np.int8) if "predicted_held" in arrays else None)
         basis = None
         if "basis_keys" in arrays:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])

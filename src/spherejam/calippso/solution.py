@@ -46,6 +46,7 @@ class LPSolution:
     failed: str = ""  # the attempts that failed before this one (e.g. an uncertified vertex before crossover)
     rows: int = -1  # rows of the LP as solved (-1: every row given; fewer under constraint generation)
     rows_added: int = 0  # rows that constraint generation added after the first solve
+    held: np.ndarray | None = None  # (N, d) -1 / +1: components the active-set solve's vertex holds at a bound
 
     @property
     def method_name(self) -> str:
