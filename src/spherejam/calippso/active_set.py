@@ -37,7 +37,6 @@ def vertex_prediction(contact, duals, s, s_bound, rij, pi, pj, n, pinned):
     in the (d+1)-core of the contact graph with the bounds as a wall, so a particle pressed against its bound is not a
     rattler. The next LP has a wider bound (docs §1.5): the held components are bound rows of the predicted basis,
     which :func:`solve_active_set` releases by pivots where they no longer bind."""
-    dim = s.shape[1]
     weight = np.where(contact, duals, 0.0)
     if not np.any(weight > 0):
         return None
@@ -45,16 +44,25 @@ def vertex_prediction(contact, duals, s, s_bound, rij, pi, pj, n, pinned):
     pushed = np.abs(particle_force_sums(rij, weight, pi, pj, n)) > 1e-6 * mean_force
     held = np.where(pushed & (np.abs(s) >= (1.0 - 1e-9) * s_bound), np.sign(s), 0).astype(np.int8)
     held[pinned] = 0
-    wall_i = np.nonzero(held)[0]
-    ci = np.concatenate([pi[contact], wall_i])
-    cj = np.concatenate([pj[contact], np.full(wall_i.size, n)])  # node n: the wall, never a rattler
-    rattler = rattler_mask(n + 1, ci, cj, dim + 1)[:n]
-    held[rattler] = 0
+    rattler, _, nu = _walled_network(pi[contact], pj[contact], held, n)
     stable = contact & ~rattler[pi] & ~rattler[pj]
-    n_stable = n - int(np.count_nonzero(rattler))
-    if int(np.count_nonzero(stable)) + int(np.count_nonzero(held)) != dim * (n_stable - 1) + 1:
+    if int(np.count_nonzero(stable)) != nu:
         return None
     return np.sort(pair_keys(pi, pj, n)[stable]), rattler, held
+
+
+def _walled_network(ci, cj, held, n):
+    """Rattlers of the contact graph (pairs ``ci``-``cj``) with the s bounds as a wall: node n, never a rattler, and
+    each held component (``held`` (N, d), nonzero) a contact with it, so a particle pressed against its bound is
+    stable. Clears ``held`` on the rattlers, in place. Returns ``(rattler mask, N_s, contacts among stable particles
+    that make the square system with the held components: d (N_s - 1) + 1 - held)``."""
+    dim = held.shape[1]
+    wall_i = np.nonzero(held)[0]
+    rattler = rattler_mask(n + 1, np.concatenate([ci, wall_i]), np.concatenate([cj, np.full(wall_i.size, n)]),
+                           dim + 1)[:n]
+    held[rattler] = 0
+    n_stable = n - int(np.count_nonzero(rattler))
+    return rattler, n_stable, dim * (n_stable - 1) + 1 - int(np.count_nonzero(held))
 
 
 def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
@@ -79,13 +87,7 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
         distance = np.maximum(s_bound - np.abs(s), 0.0) / s_bound
         bound_score = np.abs(col_dual) * m * sigma / 2.0 / np.maximum(distance, 1e-300)
         fixed = np.where(bound_score > 1.0, np.sign(s), 0).astype(np.int8)
-    wall_i = np.nonzero(fixed)[0]
-    ci = np.concatenate([pi[near], wall_i])
-    cj = np.concatenate([pj[near], np.full(wall_i.size, n)])  # node n: the wall of the s bounds, never a rattler
-    rattler = rattler_mask(n + 1, ci, cj, dim + 1)[:n]
-    fixed[rattler] = 0
-    n_stable = n - int(np.count_nonzero(rattler))
-    nu = dim * (n_stable - 1) + 1 - int(np.count_nonzero(fixed))
+    rattler, n_stable, nu = _walled_network(pi[near], pj[near], fixed, n)
     stable = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     if n_stable < dim + 2 or nu < 1 or stable.size < nu:
         return None
