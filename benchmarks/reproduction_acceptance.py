@@ -151,27 +151,31 @@ def _stage_and_n(relative: Path) -> tuple[str, str]:
 
 
 def cost_markdown(benchmarks: Path) -> str:
-    """CPU time per N and workflow stage from Snakemake's benchmark files (the last line of each file: its last
-    run)."""
-    lines = ["| N | stage | jobs | CPU h | mean CPU s | median CPU s | max CPU s |",
+    """Core-hours per N and workflow stage from Snakemake's benchmark files (the last line of each file: its last
+    run): the job's wall time ``s``, one core each (every job is single-threaded at ``calippso.threads: 1``).
+
+    Not the files' ``cpu_time``: Snakemake samples it every 30 s after a job's first 15 s, so the CPU of a job's last
+    sampling gap is lost (half of a one-minute MLS search; docs/reproduction.md, "Measured cost"). The wall time is
+    exact, and equals the CPU time when the jobs do not share a core."""
+    lines = ["| N | stage | jobs | core-h | mean s | median s | max s |",
              "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
-    cpu: dict[tuple[str, str], list[float]] = {}
+    seconds: dict[tuple[str, str], list[float]] = {}
     for f in sorted(benchmarks.rglob("*.tsv")) if benchmarks.is_dir() else []:
         with open(f, newline="") as fh:
             rows = list(csv.DictReader(fh, delimiter="\t"))
-        if rows and _number(rows[-1].get("cpu_time")) is not None:
+        if rows and _number(rows[-1].get("s")) is not None:
             stage, n = _stage_and_n(f.relative_to(benchmarks))
-            cpu.setdefault((n, stage), []).append(float(rows[-1]["cpu_time"]))
-    key = sorted(cpu, key=lambda k: (int(k[0]) if k[0].isdigit() else 0, k[1]))
+            seconds.setdefault((n, stage), []).append(float(rows[-1]["s"]))
+    key = sorted(seconds, key=lambda k: (int(k[0]) if k[0].isdigit() else 0, k[1]))
     for n, stage in key:
-        c = cpu[n, stage]
+        c = seconds[n, stage]
         lines.append(f"| {n} | {stage} | {len(c)} | {sum(c) / 3600:.2f} | {statistics.mean(c):.1f} | "
                      f"{statistics.median(c):.1f} | {max(c):.1f} |")
-    sizes = sorted({n for n, _ in cpu}, key=lambda n: int(n) if n.isdigit() else 0)
+    sizes = sorted({n for n, _ in seconds}, key=lambda n: int(n) if n.isdigit() else 0)
     if len(sizes) > 1:
         for n in sizes:
-            lines.append(f"| {n} | all | | {sum(sum(c) for k, c in cpu.items() if k[0] == n) / 3600:.2f} | | | |")
-    lines.append(f"| total | | | {sum(sum(c) for c in cpu.values()) / 3600:.2f} | | | |")
+            lines.append(f"| {n} | all | | {sum(sum(c) for k, c in seconds.items() if k[0] == n) / 3600:.2f} | | | |")
+    lines.append(f"| total | | | {sum(sum(c) for c in seconds.values()) / 3600:.2f} | | | |")
     return "\n".join(lines)
 
 
@@ -183,7 +187,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     print(f"### Acceptance at N = {args.n:g}\n")
     print(acceptance_markdown(acceptance(args.results / "tables", args.n)))
-    print("\n### Measured cost (Snakemake benchmark files)\n")
+    print("\n### Measured cost (Snakemake benchmark files: job wall time, one core each)\n")
     print(cost_markdown(args.results / "benchmarks"))
     return 0
 
