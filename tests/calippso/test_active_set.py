@@ -45,6 +45,33 @@ def test_basis_inverse_tracks_row_replacements_like_a_fresh_lu():
     assert len(binv.updates) == 7  # refactorised once, on the REFACTOR_EVERY-th replacement
 
 
+def test_a_basis_whose_lu_fills_in_is_refactorised_less_often_and_still_solves_exactly():
+    """A fresh LU pays off only once the product-form updates hold as many numbers as the LU factors: a basis with
+    much fill-in (here a dense one, as the 3D contact networks of N = 10^4 are relative to their N) waits longer
+    than REFACTOR_EVERY, and its solves stay those of a fresh factorisation across the longer stretch."""
+    from scipy.sparse import csr_matrix
+
+    from spherejam.calippso import active_set
+
+    rng = np.random.default_rng(5)
+    n = 120
+    base = rng.normal(size=(n, n)) + 20.0 * np.eye(n)
+    matrix = csr_matrix(np.vstack([base, base + rng.normal(scale=0.5, size=(n, n))]))
+    binv = active_set.BasisInverse(matrix, np.arange(n))
+    nnz = binv.lu.L.nnz + binv.lu.U.nnz
+    assert binv.refactor_every == nnz // (2 * n) > active_set.REFACTOR_EVERY
+    b = rng.normal(size=n)
+    assert binv.refactor_every <= n
+    for k in range(binv.refactor_every - 1):  # row k by its perturbed twin, one short of a refactorisation
+        binv.replace(k, n + k)
+    assert len(binv.updates) == binv.refactor_every - 1
+    dense = matrix[binv.basis].toarray()
+    np.testing.assert_allclose(dense @ binv.solve(b), b, atol=1e-9)
+    np.testing.assert_allclose(dense.T @ binv.solve_transposed(b), b, atol=1e-9)
+    binv.replace(binv.refactor_every - 1, n + binv.refactor_every - 1)
+    assert len(binv.updates) == 0  # refactorised on the refactor_every-th replacement
+
+
 def test_rattlers_are_placed_by_a_feasibility_lp_when_pushing_fails():
     """A rattler between two fixed neighbours on a line: from a place that violates one row, the small LP puts it
     where both rows hold (and moves nothing else); a cage too small for it is reported, not papered over."""
@@ -213,3 +240,25 @@ def test_lps_after_a_bound_held_lp_are_shortcuts_with_the_same_certificate(ls_ja
     assert {tuple(p) for p in new.pairs.tolist()} == {tuple(p) for p in every.pairs.tolist()}
     np.testing.assert_array_equal(new.rattlers, every.rattlers)
     assert new.phi == pytest.approx(every.phi, abs=1e-9)
+
+
+def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypatch, ls_fast_256):
+    """The third LP of a creeping N = 256 input, predicted from the second: 112 pivots certify it within the budget
+    of 500. Checked every 20 pivots instead of PROGRESS_EVERY, its count of negative duals has risen after the first
+    20 (duals move together), so at that pace the 480 pivots left would not do and the solve gives up at once
+    instead of after 500 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md §5.4)."""
+    import spherejam.calippso.active_set as active_set
+    import spherejam.calippso.run as run_module
+
+    calls = []
+    solve = run_module.solve_active_set
+    monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
+    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
+    args, kwargs = calls[1]
+    kwargs = {**kwargs, "max_pivots": 500}
+    sol = active_set.solve_active_set(*args, **kwargs)
+    assert sol is not None and sol.method.startswith("active-set+112+")
+    monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    why: list[str] = []
+    assert active_set.solve_active_set(*args, **{**kwargs, "why": why}) is None
+    assert len(why) == 1 and "after 20 pivots" in why[0] and "too slow for the 480 left" in why[0], why
