@@ -55,10 +55,11 @@ FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
 #: CALiPPSO: mean LP iterations of a certification, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks
-#: included), growing as N^CALIPPSO_EXPONENT (fitted to N = 1000 and 10^4).
+#: included), growing as N^CALIPPSO_EXPONENT (through the N = 1024 LP and the mean of the first three LPs of an
+#: N = 10^4 LS output; docs/cluster.md §3).
 CALIPPSO_ITERATIONS = 60
 CALIPPSO_LP_SECONDS = 0.79
-CALIPPSO_EXPONENT = 2.23
+CALIPPSO_EXPONENT = 2.62
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
