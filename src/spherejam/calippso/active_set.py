@@ -103,14 +103,13 @@ MAX_PIVOTS = 500
 DUAL_ZERO = 1e-12
 #: Primal pivots by the steepest dual before Bland's rule takes over (which cannot cycle on a degenerate vertex).
 BLAND_AFTER = 50
-#: Pivots between two checks of an active-set solve's pace: one pivot fixes 0.4-3 negative duals (N = 256), so a
-#: count of them says little about the pivots still needed, but the pace of the last 100 does.
+#: Pivots between two checks of an active-set solve's pace: a pivot may fix several negative duals or none, and
+#: their count can rise for a while, so the count alone does not say how many pivots are still needed; the pace over
+#: this many does (docs/calippso.md §5.4).
 PROGRESS_EVERY = 100
 #: Row replacements between two factorisations of the basis matrix (BasisInverse), at least: each adds two vectors to
-#: every later solve, so a fresh LU pays off after a few dozen at small N. A large basis waits longer (until the
-#: update vectors hold as many numbers as its LU factors), because its LU's fill-in grows faster than N: at N = 10^4
-#: one factorisation took 16 s against 37 ms per solve, and refactorising every 50 replacements was 60 % of the
-#: pivots' time (docs/calippso.md §5.4).
+#: every later solve, so a fresh LU pays off after a few dozen at small N. A large basis waits until the update
+#: vectors hold as many numbers as its LU factors, because its LU fills in faster than N grows (docs/calippso.md §5.4).
 REFACTOR_EVERY = 50
 
 
@@ -462,7 +461,7 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
             checked = (pivot, negative.size)
         elif pivot - checked[0] >= PROGRESS_EVERY:
             # a prediction that, at its pace since the last check, would not be done in the pivots left is given
-            # up now rather than after them: at N = 10^4 a pivot costs 0.2-0.6 s, 500 of them more than HiGHS
+            # up now rather than after them: at large N the pivots left can cost more than a HiGHS solve
             pace = (checked[1] - negative.size) / (pivot - checked[0])  # duals fixed per pivot
             if negative.size > pace * (max_pivots - pivot):
                 raise _NoVertex(f"{negative.size} duals still negative after {pivot} pivots ({checked[1]} after "
