@@ -13,7 +13,12 @@ the Snakemake benchmark files ``RESULTS/benchmarks/**/*.tsv``, and prints two Ma
   and maxima within +- 0.004; phi_GCP of the LS-initial and FB-initial rows of Table 2 at sigma = 0.3 within +- 0.004
   with a 95 % half-width below 0.004; phi_GCP - phi_RCP within +- 0.003 of the paper's. A criterion whose paper cell
   or our cell is missing is "not decidable";
-* the CPU time per N and stage (jobs, CPU hours, mean, median and largest CPU seconds per job) and the total.
+* the cost per N and stage from the benchmark files (jobs, core-hours of job wall time, mean, median and largest
+  seconds per job) and the total;
+* the cost per N and size distribution from ``RESULTS/dataset.nc`` (or the part datasets given with ``--datasets``):
+  the times each packing's runs record (generation, MLS, CALiPPSO), which add up over a run stopped and resumed
+  from its checkpoint and travel with the dataset, where the benchmark files count a job's last run only and stay
+  on the machine that ran it.
 """
 
 from __future__ import annotations
@@ -179,16 +184,54 @@ def cost_markdown(benchmarks: Path) -> str:
     return "\n".join(lines)
 
 
+#: The dataset's per-packing run times (seconds) and the stage each belongs to.
+RUN_TIMES = {"generation": "generation_wall_time", "MLS": "mls_wall_time", "CALiPPSO": "calippso_wall_time"}
+
+
+def dataset_cost_markdown(paths: list[Path]) -> str:
+    """Core-hours per N and size distribution from the run times recorded in datasets (``spherejam dataset`` or
+    the parts of a run), one row per (N, distribution), a total row."""
+    import numpy as np
+    import xarray as xr
+
+    lines = ["| N | distribution | packings | " + " | ".join(f"{stage} h" for stage in RUN_TIMES) + " | total h |",
+             "| ---: | --- | ---: | " + " | ".join("---:" for _ in RUN_TIMES) + " | ---: |"]
+    rows = []
+    for path in paths:
+        with xr.open_dataset(path) as ds:
+            for n, dist in sorted({(int(n), str(d)) for n, d in zip(ds["n"].values, ds["distribution"].values)}):
+                pick = (ds["n"].values == n) & (ds["distribution"].values == dist)
+                rows.append((n, dist, int(pick.sum()), {stage: float(np.nansum(ds[var].values[pick])) / 3600
+                                                        if var in ds else 0.0 for stage, var in RUN_TIMES.items()}))
+    totals = dict.fromkeys(RUN_TIMES, 0.0)
+    for n, dist, count, hours in sorted(rows, key=lambda r: r[:2]):
+        for stage, h in hours.items():
+            totals[stage] += h
+        lines.append(f"| {n} | {dist} | {count} | " + " | ".join(f"{h:.2f}" for h in hours.values())
+                     + f" | {sum(hours.values()):.2f} |")
+    lines.append("| total | | | " + " | ".join(f"{h:.2f}" for h in totals.values()) + f" | {sum(totals.values()):.2f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("results", type=Path, help="the run's results folder (e.g. results-reproduction)")
     ap.add_argument("--n", type=float, default=PAPER_N,
                     help="with a ladder of N: the rows to judge (default 10000, extrapolated; inf for the limit)")
+    ap.add_argument("--datasets", type=Path, nargs="+", metavar="NC",
+                    help="the datasets whose recorded run times to sum (default: RESULTS/dataset.nc, if there)")
     args = ap.parse_args(argv)
     print(f"### Acceptance at N = {args.n:g}\n")
-    print(acceptance_markdown(acceptance(args.results / "tables", args.n)))
+    if (args.results / "tables").is_dir():
+        print(acceptance_markdown(acceptance(args.results / "tables", args.n)))
+    else:  # a run still in parts: its cost only
+        print(f"not decidable: no {args.results / 'tables'} yet")
     print("\n### Measured cost (Snakemake benchmark files: job wall time, one core each)\n")
     print(cost_markdown(args.results / "benchmarks"))
+    datasets = args.datasets or [p for p in [args.results / "dataset.nc"] if p.is_file()]
+    if datasets:
+        print("\n### Measured cost (the run times each packing records, summed over resumes)\n")
+        print(dataset_cost_markdown(datasets))
     return 0
 
 

@@ -97,3 +97,24 @@ def test_a_ladder_is_judged_at_the_extrapolated_rows(tmp_path):
     assert paper_n[("φ_GCP LS, initial ± 0.004, half-width < 0.004", 0.3)]["met"] == "**no**"  # half-width 0.005
     measured = {(r["criterion"], r["sigma"]): r["met"] for r in ra.acceptance(tmp_path, 1000.0)}
     assert measured[("φ_LT ± 0.003 (Table 4)", 0.0)] == "**no**"
+
+
+def test_dataset_cost_sums_the_recorded_run_times_per_n_and_distribution(tmp_path):
+    """The times each packing's runs record, in hours per (N, distribution), from two part datasets; a NaN (a packing
+    CALiPPSO did not certify) counts as nothing."""
+    import numpy as np
+    import xarray as xr
+
+    def part(path, n, dist, gen, mls, cal):
+        coords = {"n": ("packing", [n] * len(gen)), "distribution": ("packing", [dist] * len(gen))}
+        xr.Dataset({"generation_wall_time": ("packing", gen), "mls_wall_time": ("packing", mls),
+                    "calippso_wall_time": ("packing", cal)}, coords=coords).to_netcdf(path)
+        return path
+
+    a = part(tmp_path / "a.nc", 500, "sigma0", [360.0, 360.0], [3600.0, 7200.0], [36.0, np.nan])
+    b = part(tmp_path / "b.nc", 250, "sigma0.3", [1800.0], [1800.0], [0.0])
+    text = ra.dataset_cost_markdown([a, b])
+    lines = text.splitlines()
+    assert lines[2] == "| 250 | sigma0.3 | 1 | 0.50 | 0.50 | 0.00 | 1.00 |"  # sorted by N
+    assert lines[3] == "| 500 | sigma0 | 2 | 0.20 | 3.00 | 0.01 | 3.21 |"
+    assert lines[4] == "| total | | | 0.70 | 3.50 | 0.01 | 4.21 |"
