@@ -244,9 +244,10 @@ def test_lps_after_a_bound_held_lp_are_shortcuts_with_the_same_certificate(ls_ja
 
 def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypatch, ls_fast_256):
     """The third LP of a creeping N = 256 input, predicted from the second: 112 pivots certify it within the budget
-    of 500. Checked every 20 pivots instead of PROGRESS_EVERY, its count of negative duals has risen after the first
-    20 (duals move together), so at that pace the 480 pivots left would not do and the solve gives up at once
-    instead of after 500 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md §5.4)."""
+    of 500. With a budget of 40 and the pace checked every 20 pivots instead of PROGRESS_EVERY, its negative duals
+    have risen after the first 20 (duals move together) and outnumber the 20 pivots left, so the solve gives up
+    then instead of after 40 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md
+    §5.4). With 480 pivots left the same count and pace are no reason to give up."""
     import spherejam.calippso.active_set as active_set
     import spherejam.calippso.run as run_module
 
@@ -255,10 +256,9 @@ def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypat
     monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
     run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
     args, kwargs = calls[1]
-    kwargs = {**kwargs, "max_pivots": 500}
-    sol = active_set.solve_active_set(*args, **kwargs)
-    assert sol is not None and sol.method.startswith("active-set+112+")
     monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
+    assert sol is not None and sol.method.startswith("active-set+112+")
     why: list[str] = []
-    assert active_set.solve_active_set(*args, **{**kwargs, "why": why}) is None
-    assert len(why) == 1 and "after 20 pivots" in why[0] and "too slow for the 480 left" in why[0], why
+    assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 40, "why": why}) is None
+    assert len(why) == 1 and "after 20 pivots" in why[0] and "too slow for the 20 left" in why[0], why

@@ -104,8 +104,8 @@ DUAL_ZERO = 1e-12
 #: Primal pivots by the steepest dual before Bland's rule takes over (which cannot cycle on a degenerate vertex).
 BLAND_AFTER = 50
 #: Pivots between two checks of an active-set solve's pace: a pivot may fix several negative duals or none, and
-#: their count can rise for a while, so the count alone does not say how many pivots are still needed; the pace over
-#: this many does (docs/calippso.md §5.4).
+#: their count can rise for a while, so the count alone does not say how many pivots are still needed; with the pace
+#: over this many it does (docs/calippso.md §5.4).
 PROGRESS_EVERY = 100
 #: Row replacements between two factorisations of the basis matrix (BasisInverse), at least: each adds two vectors to
 #: every later solve, so a fresh LU pays off after a few dozen at small N. A large basis waits until the update
@@ -460,10 +460,13 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
         if checked is None:
             checked = (pivot, negative.size)
         elif pivot - checked[0] >= PROGRESS_EVERY:
-            # a prediction that, at its pace since the last check, would not be done in the pivots left is given
-            # up now rather than after them: at large N the pivots left can cost more than a HiGHS solve
+            # a prediction further off than the pivots left, and too slow at its pace since the last check to be
+            # done in them, is given up now rather than after them: at large N the pivots left can cost more than
+            # a HiGHS solve. (Either alone is no reason: a pivot can fix several duals, and a few dozen left are
+            # worth the pivots whatever the recent pace.)
             pace = (checked[1] - negative.size) / (pivot - checked[0])  # duals fixed per pivot
-            if negative.size > pace * (max_pivots - pivot):
+            left = max_pivots - pivot
+            if negative.size > left and negative.size > pace * left:
                 raise _NoVertex(f"{negative.size} duals still negative after {pivot} pivots ({checked[1]} after "
                                 f"{checked[0]}): too slow for the {max_pivots - pivot} left")
             checked = (pivot, negative.size)
