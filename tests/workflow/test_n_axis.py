@@ -259,6 +259,27 @@ def _check_a_run_in_parts_merges_to_the_whole(configfile, results, whole):
     assert main(["merge", str(parts[0]), str(parts[0]), "-o", str(merged / "twice.nc")]) == 2
 
 
+def test_a_merged_dataset_keeps_every_string_whole(tmp_path):
+    """Parts of a ladder hold strings of different lengths ("sigma0" and "sigma0.3"). A dataset read from a file
+    remembers each string's width there, and a concatenation keeps the first part's: the merged dataset must still
+    be written with every string whole (it once came out "sigma0" for every packing, and keys cut short)."""
+    from spherejam.workflow.dataset import write_dataset
+
+    def part(dist, key):
+        path = tmp_path / f"{dist}.nc"
+        write_dataset(xr.Dataset({"phi_J": ("packing", [0.64, 0.66])},
+                                 coords={"distribution": ("packing", [dist] * 2), "key": ("packing", [key] * 2)}),
+                      path)
+        return xr.load_dataset(path, engine="h5netcdf")
+
+    parts = [part("sigma0", "n1000/ls/sigma0/rate2/r0"), part("sigma0.3", "n250/fb/sigma0.3/rate0.000155565/r0")]
+    merged = xr.concat(parts, dim="packing", data_vars="minimal", coords="minimal")
+    write_dataset(merged, tmp_path / "merged.nc")
+    again = xr.load_dataset(tmp_path / "merged.nc", engine="h5netcdf")
+    assert again.distribution.values.tolist() == ["sigma0"] * 2 + ["sigma0.3"] * 2
+    assert again.key.values.tolist()[-1] == "n250/fb/sigma0.3/rate0.000155565/r0"
+
+
 def test_browse_selects_one_n(tmp_path, capsys):
     from spherejam.cli import main
 

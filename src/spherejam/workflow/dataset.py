@@ -524,9 +524,22 @@ def at_n(ds, n: int):
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:
     """Write ``ds`` atomically as netCDF4 (h5netcdf engine)."""
+    ds = _without_string_widths(ds)
     with atomic_output(path, ".nc") as tmp:
         ds.to_netcdf(tmp, engine="h5netcdf")
     return Path(path)
+
+
+def _without_string_widths(ds):
+    """``ds`` with no fixed string width in its variables' encodings. A dataset opened from a file remembers each
+    string variable's width there (``<U6`` for "sigma0"), and a concatenation keeps the first part's: written with
+    it, a merged "sigma0.3" became "sigma0" and longer keys were cut. The width must follow the data."""
+    ds = ds.copy()
+    for name in ds.variables:
+        dtype = ds.variables[name].encoding.get("dtype")
+        if dtype is not None and np.dtype(dtype).kind in "US":
+            ds.variables[name].encoding.pop("dtype")
+    return ds
 
 
 def _refuse_packing_file(path: Path) -> None:
