@@ -53,7 +53,6 @@ def fixture_path(name: str, directory: Path = DEFAULT_DIR) -> Path:
 
 def build(name: str, directory: Path = DEFAULT_DIR) -> Path:
     """Make fixture ``name`` unless its file exists; return the file."""
-    from spherejam.core.packing_io import write_packing
     from spherejam.core.seeding import poisson_packing
     from spherejam.engines.lubachevsky_stillinger import run_ls
 
@@ -72,17 +71,12 @@ def build(name: str, directory: Path = DEFAULT_DIR) -> Path:
 
         result = find_closest_jamming(result.packing, initial_rate=rate, final_rate=1e-4, p_max=pressure, seed=seed,
                                       progress_interval=60.0)
-    packing = result.packing
-    packing.metadata["fixture"] = name
-    write_packing(path, packing)
-    print(f"{name}: N={n} sigma={sigma} rate={rate:g} p={packing.metadata.get('reduced_pressure'):.3g} "
-          f"phi={packing.phi:.8f} in {time.perf_counter() - t:.0f} s -> {path}", flush=True)
-    return path
+    return _write(name, path, result.packing, f"N={n} sigma={sigma} rate={rate:g}", t)
 
 
 def _build_mls(name: str, directory: Path) -> Path:
     """The MLS fixture ``name``: the closest jammed state of its LS fixture (built first if missing)."""
-    from spherejam.core.packing_io import read_packing, write_packing
+    from spherejam.core.packing_io import read_packing
     from spherejam.engines.closest_jamming import find_closest_jamming
 
     source = MLS_FIXTURES[name]
@@ -91,11 +85,17 @@ def _build_mls(name: str, directory: Path) -> Path:
     t = time.perf_counter()
     result = find_closest_jamming(start, seed=FIXTURES[source][4], checkpoint=str(path) + ".ckpt",
                                   checkpoint_interval=120.0, progress_interval=60.0)
-    packing = result.packing
+    return _write(name, path, result.packing, f"MLS of {source}", t)
+
+
+def _write(name: str, path: Path, packing, recipe: str, t0: float) -> Path:
+    """Write fixture ``name`` (labelled in its metadata) and say what it is and what it took."""
+    from spherejam.core.packing_io import write_packing
+
     packing.metadata["fixture"] = name
     write_packing(path, packing)
-    print(f"{name}: MLS of {source}: p={packing.metadata.get('reduced_pressure'):.3g} phi={packing.phi:.8f} in "
-          f"{time.perf_counter() - t:.0f} s -> {path}", flush=True)
+    print(f"{name}: {recipe} p={packing.metadata.get('reduced_pressure'):.3g} phi={packing.phi:.8f} in "
+          f"{time.perf_counter() - t0:.0f} s -> {path}", flush=True)
     return path
 
 
