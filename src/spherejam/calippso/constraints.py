@@ -114,21 +114,31 @@ def pairs_in_cutoff(positions: np.ndarray, box: float, cutoff: float):
     return pairs_within(positions, np.full(n, float(cutoff)), box, 1.0)
 
 
-def cutoff_rows(positions: np.ndarray, box: float, cutoff: float):
-    """The LP's rows: every periodic image of every pair i < j closer than ``cutoff`` (an absolute length), as
-    ``(pi, pj, rij)`` with rij = r_i - r_j - n L of that image, sorted by (i, j, |rij|) (docs/calippso.md §1.2).
+def cutoff_rows(positions: np.ndarray, box: float, cutoff):
+    """The LP's rows: every periodic image of every pair i < j closer than its cutoff, as ``(pi, pj, rij)`` with
+    rij = r_i - r_j - n L of that image, sorted by (i, j, |rij|) (docs/calippso.md §1.2).
 
-    While the cutoff is below L/2 these are the pairs of :func:`pairs_in_cutoff` with their minimum-image vectors
-    (:func:`pair_vectors`), bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
+    ``cutoff`` is one absolute length for every pair, or per particle a reach w_i (absolute), the cutoff of pair
+    (i, j) then being (w_i + w_j) / 2: :func:`closable_reach` gives the rows a step can close (§1.4). While every
+    cutoff is below L/2 these are the pairs within it with their minimum-image vectors (:func:`pair_vectors`),
+    bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
     """
     n = positions.shape[0]
-    pi, pj, d = pair_images(positions, np.full(n, float(cutoff)), box, 1.0)
+    reach = np.broadcast_to(np.asarray(cutoff, dtype=np.float64), (n,))
+    pi, pj, d = pair_images(positions, reach, box, 1.0)
     rij = pair_vectors(positions, box, pi, pj)
     if np.any((pi[1:] == pi[:-1]) & (pj[1:] == pj[:-1])):
         # a pair listed more than once: shift each row from the minimum image to its own image by whole boxes
         shift = np.rint((-d - rij) / box)
         rij = rij + shift * box
     return pi, pj, rij
+
+
+def closable_reach(diameters: np.ndarray, sqrt_inflation_max: float, s_bound: float, dim: int) -> np.ndarray:
+    """Per-particle reach w_i = sqrt(Gamma_max) D_i + 2 sqrt(d) s_bound for :func:`cutoff_rows`: pair (i, j) is a row
+    iff r_ij < sqrt(Gamma_max) sigma_ij + 2 sqrt(d) s_bound, the pairs that a step with |s_mu| <= s_bound and
+    Gamma <= Gamma_max can bring into contact (docs/calippso.md §1.4). Lengths absolute."""
+    return sqrt_inflation_max * np.asarray(diameters, dtype=np.float64) + 2.0 * np.sqrt(dim) * s_bound
 
 
 def pair_keys(pi: np.ndarray, pj: np.ndarray, n: int) -> np.ndarray:

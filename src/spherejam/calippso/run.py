@@ -32,7 +32,7 @@ from ..core.neighbours import pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
-from .constraints import cutoff_rows, pair_keys
+from .constraints import closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .network import contact_network, initial_pin, near_gaps, repin
@@ -540,8 +540,11 @@ class _Tally:
         self.solvers[sol.solver] = self.solvers.get(sol.solver, 0) + 1
 
 
-def _rows(x, dia, box, ell, s_bound=0.0, inflation_max=0.0, regime=0) -> _LP:
-    pi, pj, rij = cutoff_rows(x, box, ell)
+def _rows(x, dia, box, ell, s_bound, inflation_max, regime=0) -> _LP:
+    # only the pairs a step can close (docs §1.4): the same optimum as every pair within l, and in a polydisperse
+    # packing a fraction of the rows, since l is set by the largest sphere
+    reach = np.minimum(closable_reach(dia, math.sqrt(inflation_max), s_bound, x.shape[1]), ell)
+    pi, pj, rij = cutoff_rows(x, box, reach)
     sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
     return _LP(ell, s_bound, inflation_max, regime, pi, pj, rij, sigma2)
 
@@ -683,8 +686,9 @@ def _force_lp(run: _Run, cfg: _Settings, fine_tune: bool):
     failed) the last main-loop LP and its duals."""
     loop, tally, iteration = run.loop, run.tally, run.iteration
     R = 0.5 * float(run.dia.max())
-    ell = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds)[0]  # the final cutoff
-    lp = _rows(run.x, run.dia, cfg.box, ell)
+    # the final regime's rows: a superset of the contacts, which are all this LP needs
+    ell, sb, inflation_max, _ = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds)
+    lp = _rows(run.x, run.dia, cfg.box, ell, sb, inflation_max)
     cpu0 = time.process_time()
     if fine_tune:
         try:
