@@ -262,3 +262,34 @@ def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypat
     why: list[str] = []
     assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 40, "why": why}) is None
     assert len(why) == 1 and "after 20 pivots" in why[0] and "too slow for the 20 left" in why[0], why
+
+
+def test_an_active_set_solve_with_more_negative_duals_than_its_pivots_can_fix_is_given_up_at_once(monkeypatch,
+                                                                                                    ls_fast_256):
+    """The attempt of the test above starts with M negative duals. With fewer than M / MOST_FIXED_PER_PIVOT pivots
+    allowed it is given up before its first pivot (at N = 10^4 such attempts started 10^4 duals short, docs
+    §5.4); with more it pivots."""
+    import re
+
+    import spherejam.calippso.active_set as active_set
+    import spherejam.calippso.run as run_module
+
+    calls = []
+    solve = run_module.solve_active_set
+    monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
+    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
+    args, kwargs = calls[1]
+    monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    why: list[str] = []
+    assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 40, "why": why}) is None
+    start = int(re.search(r"\((\d+) after 0\)", why[0]).group(1))  # negative duals before the first pivot
+    most = active_set.MOST_FIXED_PER_PIVOT
+    assert start > most, why
+    few = (start - 1) // most  # start > most * few: hopeless
+    why.clear()
+    assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": few, "why": why}) is None
+    assert len(why) == 1 and f"{start} duals still negative after 0 pivots" in why[0], why
+    enough = start // most + 1  # start <= most * enough: it pivots, then fails for want of pivots
+    why.clear()
+    assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": enough, "why": why}) is None
+    assert len(why) == 1 and "after 0 pivots" not in why[0], why

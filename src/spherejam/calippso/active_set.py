@@ -107,6 +107,9 @@ BLAND_AFTER = 50
 #: their count can rise for a while, so the count alone does not say how many pivots are still needed; with the pace
 #: over this many it does (docs/calippso.md §5.4).
 PROGRESS_EVERY = 100
+#: Negative duals one pivot can be expected to fix, at most: the paces measured were 0.4-3 (docs/calippso.md §5.4).
+#: An attempt with more negative duals than this many times its pivots left is given up without pivoting.
+MOST_FIXED_PER_PIVOT = 10
 #: Row replacements between two factorisations of the basis matrix (BasisInverse), at least: each adds two vectors to
 #: every later solve, so a fresh LU pays off after a few dozen at small N. A large basis waits until the update
 #: vectors hold as many numbers as its LU factors, because its LU fills in faster than N grows (docs/calippso.md §5.4).
@@ -457,6 +460,11 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
         if pivot == max_pivots:
             raise _NoVertex(f"{negative.size} duals still negative (lowest {lam[k]:.1e} of a median "
                             f"{float(np.median(lam)):.1e}) after {max_pivots} pivots")
+        if negative.size > MOST_FIXED_PER_PIVOT * (max_pivots - pivot):
+            # hopeless at any pace seen (at N = 10^4 a contact network changed by thousands of rows); its pivots
+            # would cost minutes before the pace check below could tell
+            raise _NoVertex(f"{negative.size} duals still negative after {pivot} pivots: more than "
+                            f"{MOST_FIXED_PER_PIVOT} for each of the {max_pivots - pivot} left")
         if checked is None:
             checked = (pivot, negative.size)
         elif pivot - checked[0] >= PROGRESS_EVERY:
