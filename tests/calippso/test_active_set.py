@@ -248,15 +248,7 @@ def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypat
     have risen after the first 20 (duals move together) and outnumber the 20 pivots left, so the solve gives up
     then instead of after 40 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md
     §5.4). With 480 pivots left the same count and pace are no reason to give up."""
-    import spherejam.calippso.active_set as active_set
-    import spherejam.calippso.run as run_module
-
-    calls = []
-    solve = run_module.solve_active_set
-    monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
-    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
-    args, kwargs = calls[1]
-    monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    active_set, args, kwargs = _third_lp_attempt(monkeypatch, ls_fast_256)
     sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
     assert sol is not None and sol.method.startswith("active-set+112+")
     why: list[str] = []
@@ -271,15 +263,7 @@ def test_an_active_set_solve_with_more_negative_duals_than_its_pivots_can_fix_is
     §5.4); with more it pivots."""
     import re
 
-    import spherejam.calippso.active_set as active_set
-    import spherejam.calippso.run as run_module
-
-    calls = []
-    solve = run_module.solve_active_set
-    monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
-    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
-    args, kwargs = calls[1]
-    monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    active_set, args, kwargs = _third_lp_attempt(monkeypatch, ls_fast_256)
     why: list[str] = []
     assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 40, "why": why}) is None
     start = int(re.search(r"\((\d+) after 0\)", why[0]).group(1))  # negative duals before the first pivot
@@ -293,3 +277,17 @@ def test_an_active_set_solve_with_more_negative_duals_than_its_pivots_can_fix_is
     why.clear()
     assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": enough, "why": why}) is None
     assert len(why) == 1 and "after 0 pivots" not in why[0], why
+
+
+def _third_lp_attempt(monkeypatch, packing):
+    """The active-set module with its pace checked every 20 pivots, and the arguments of the third LP's attempt of a
+    CALiPPSO run on ``packing`` (predicted from the second LP's network)."""
+    import spherejam.calippso.active_set as active_set
+    import spherejam.calippso.run as run_module
+
+    calls = []
+    solve = run_module.solve_active_set
+    monkeypatch.setattr(run_module, "solve_active_set", lambda *a, **k: calls.append((a, k)) or solve(*a, **k))
+    run_calippso(packing, solver="hipo", warm_start=False, max_iterations=3)
+    monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
+    return active_set, *calls[1]
