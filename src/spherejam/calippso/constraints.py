@@ -16,6 +16,8 @@ In a box smaller than two cutoffs a pair may meet through several images, and th
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -134,11 +136,18 @@ def cutoff_rows(positions: np.ndarray, box: float, cutoff):
     return pi, pj, rij
 
 
+def step_approach(s_bound: float, dim: int) -> float:
+    """How far two centres can approach in one step with |s_{i,mu}| <= s_bound: |s_i - s_j| <= 2 sqrt(d) s_bound.
+    A pair farther than sqrt(Gamma) sigma_ij + this cannot overlap after a step with that Gamma (docs/calippso.md
+    §1.4, §5.7)."""
+    return 2.0 * math.sqrt(dim) * s_bound
+
+
 def closable_reach(diameters: np.ndarray, sqrt_inflation_max: float, s_bound: float, dim: int) -> np.ndarray:
-    """Per-particle reach w_i = sqrt(Gamma_max) D_i + 2 sqrt(d) s_bound for :func:`cutoff_rows`: pair (i, j) is a row
-    iff r_ij < sqrt(Gamma_max) sigma_ij + 2 sqrt(d) s_bound, the pairs that a step with |s_mu| <= s_bound and
+    """Per-particle reach w_i = sqrt(Gamma_max) D_i + :func:`step_approach` for :func:`cutoff_rows`: pair (i, j) is a
+    row iff r_ij < sqrt(Gamma_max) sigma_ij + 2 sqrt(d) s_bound, the pairs that a step with |s_mu| <= s_bound and
     Gamma <= Gamma_max can bring into contact (docs/calippso.md §1.4). Lengths absolute."""
-    return sqrt_inflation_max * np.asarray(diameters, dtype=np.float64) + 2.0 * np.sqrt(dim) * s_bound
+    return sqrt_inflation_max * np.asarray(diameters, dtype=np.float64) + step_approach(s_bound, dim)
 
 
 def pair_keys(pi: np.ndarray, pj: np.ndarray, n: int) -> np.ndarray:

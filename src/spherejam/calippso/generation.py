@@ -11,13 +11,12 @@ left out.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 
 import numpy as np
 
-from .constraints import row_excesses
+from .constraints import row_excesses, step_approach
 from .solution import LPSolution
 
 #: sqrt(Gamma) - 1 of the near-row test, as a multiple of the previous LP's: sqrt(Gamma) - 1 falls from one LP to
@@ -31,8 +30,7 @@ def near_rows(rij: np.ndarray, sigma2: np.ndarray, s_bound: float, sqrt_inflatio
     """Mask of the pair rows that may be violated at a step whose sqrt(Gamma) is at most ``sqrt_inflation_guess``:
     r_ij <= sigma_ij sqrt(Gamma_guess) + 2 sqrt(d) ``s_bound`` (lengths in the caller's unit)."""
     r = np.sqrt(np.einsum("ij,ij->i", rij, rij))
-    reach = 2.0 * math.sqrt(rij.shape[1]) * s_bound
-    return r <= np.sqrt(sigma2) * sqrt_inflation_guess + reach
+    return r <= np.sqrt(sigma2) * sqrt_inflation_guess + step_approach(s_bound, rij.shape[1])
 
 
 def solve_generated(rij, sigma2, pi, pj, near: np.ndarray,
