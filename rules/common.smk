@@ -17,6 +17,7 @@ from spherejam.workflow.experiment import (
     mls_command,
 )
 from spherejam.workflow.manifest import renew_stale_manifest
+from spherejam.workflow.run_hooks import cancel_pending_timers
 
 try:  # the schema (filling in its defaults), the limits and consistency rules of spherejam.workflow.config, and
     # the design (paths that must not collide)
@@ -34,6 +35,15 @@ PATHS = EXP.paths
 _renewed = renew_stale_manifest(PATHS.manifest, config)
 if _renewed:
     print(_renewed, file=sys.stderr)
+
+
+# Without this the process lingers up to the profile's timespan (60 s) after its last job (run_hooks).
+onsuccess:
+    cancel_pending_timers()
+
+
+onerror:
+    cancel_pending_timers()
 
 
 wildcard_constraints:

@@ -25,7 +25,16 @@ def test_dry_run(config, tmp_path):
     cfg = yaml.safe_load((ROOT / "config" / config).read_text())
     cfg["results"] = str(tmp_path / "results")
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
-    r = snakemake("-n", "-p", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
+    targets = []
+    if config == "paper.yaml":
+        # Its whole DAG (26 550 jobs) takes Snakemake 1.5-2.5 min to build; the rules are the same as the other
+        # configs' and Experiment checks its paths. One LS, one FB and one grid run's MLS job carry its settings.
+        from spherejam.workflow.experiment import Experiment
+
+        exp = Experiment(cfg)
+        targets = [exp.paths.packing("jammed", next(iter(exp.runs(p))).key) for p in ("ls", "fb")]
+        targets.append(str(exp.grid_path(exp.grid_runs()[0])))
+    r = snakemake(*targets, "-n", "-p", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
     assert r.returncode == 0, r.stderr[-3000:]
     # every MLS job gets the MLS settings of its own config (the paper's must not inherit the default's cut)
     mls_jobs = [line for line in r.stdout.splitlines() if "spherejam mls " in line]
@@ -85,6 +94,40 @@ def test_configfile_is_not_completed_from_the_default(tmp_path):
 def test_lint_is_clean():
     r = snakemake("--lint", "--cores", "1")
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+
+
+def test_pending_timers_are_cancelled():
+    import threading
+
+    from spherejam.workflow.run_hooks import cancel_pending_timers
+
+    fired = []
+    timer = threading.Timer(600, lambda: fired.append(1))
+    timer.start()
+    assert cancel_pending_timers() >= 1
+    timer.join(5)
+    assert not timer.is_alive() and not fired
+
+
+def test_a_run_exits_when_its_jobs_are_done(tmp_path):
+    """The local profile's 60 s job-rate timespan must not keep `snakemake` alive after its last job (run_hooks):
+    one seed job, whose run Snakemake itself times at a few seconds, and the process must end soon after."""
+    import time
+
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    cfg["results"] = str(tmp_path / "results")
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    from spherejam.workflow.experiment import Experiment
+
+    exp = Experiment(cfg)
+    target = exp.paths.packing("poisson", next(iter(exp.runs("ls"))).key)
+    t = time.monotonic()
+    r = snakemake(target, "--cores", "1", "--configfile", str(tmp_path / "c.yaml"))
+    wall = time.monotonic() - t
+    assert r.returncode == 0, r.stderr[-3000:]
+    h, m, s = re.search(r"Elapsed time: (\d+):(\d+):([\d.]+)", r.stderr).groups()
+    inside = 3600 * int(h) + 60 * int(m) + float(s)
+    assert wall - inside < 40, (wall, inside)  # start-up only; the timer kept it 60 s longer
 
 
 @pytest.fixture(scope="module")

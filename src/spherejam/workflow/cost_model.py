@@ -14,10 +14,11 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
-* CALiPPSO: ``CALIPPSO_ITERATIONS`` LPs of ``CALIPPSO_LP_SECONDS (N / 1024)^CALIPPSO_EXPONENT`` seconds each.
+* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT``
+  seconds each (the per-LP time includes the run's share of its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
 
-Both size factors count an N below 1000 as 1000.
+The LS and MLS size factors count an N below 1000 as 1000.
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
 [floor, ceiling], and multiplied by the attempt number: a job killed at its limit is submitted again by Snakemake
@@ -54,12 +55,14 @@ MLS_SIZE_EXPONENT = 0.66
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: mean LP iterations of a certification, and mean CPU seconds of one LP at N = 1024 (d = 3, fallbacks
-#: included), growing as N^CALIPPSO_EXPONENT (through the N = 1024 LP and the mean of the first three LPs of an
-#: N = 10^4 LS output; docs/cluster.md §3).
-CALIPPSO_ITERATIONS = 60
-CALIPPSO_LP_SECONDS = 0.79
-CALIPPSO_EXPONENT = 2.62
+#: CALiPPSO: mean LPs of a certification at N = 1000 and their growth with N, fitted to the reproduction ladder's
+#: 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7); and the CPU seconds per LP at
+#: N = 1000 (the ladder's 1324 LPs, start-up and force LPs included) growing as N^CALIPPSO_EXPONENT through the mean
+#: per LP at N = 10^4 (313 s: 52 LPs of three inputs). docs/cluster.md §3.
+CALIPPSO_LPS = 14.2
+CALIPPSO_LPS_EXPONENT = 0.96
+CALIPPSO_LP_SECONDS = 1.96
+CALIPPSO_EXPONENT = 2.20
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
@@ -140,6 +143,13 @@ def fb_iterations(rate: float) -> float:
     return FB_BASE + FB_PER_INVERSE_RATE / rate
 
 
+def calippso_lps(n: int) -> float:
+    """Expected number of LPs of one CALiPPSO certification of an MLS output of N spheres (a mean: the median is
+    smaller, and a few certifications take tens of times more, docs/calippso.md §9)."""
+    n = _check_n(n)
+    return CALIPPSO_LPS * (n / 1000.0) ** CALIPPSO_LPS_EXPONENT
+
+
 def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: float = 10.0,
                 decrease_factor: float = 2.0, final_rate: float = 1e-4) -> float:
     """Expected CPU seconds of the work of one job (no start-up, no margin).
@@ -158,7 +168,7 @@ def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: 
     if stage == "mls":
         return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
     if stage == "calippso":
-        return CALIPPSO_ITERATIONS * CALIPPSO_LP_SECONDS * (n / 1024.0) ** CALIPPSO_EXPONENT
+        return calippso_lps(n) * CALIPPSO_LP_SECONDS * (n / 1000.0) ** CALIPPSO_EXPONENT
     if stage == "analyze":
         return ANALYZE_SECONDS * n
     return 1e-4 * n  # seed
