@@ -17,7 +17,8 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
 - ``ls1024_p1e12``, ``ls1024_p1e12_s03``, ``ls2048_p1e12``: LS outputs at p = 1e12 (sigma = 0, 0.3, 0), the inputs
   on which the new LP path's certificates are compared with today's;
 - ``ls10000_p1e12_s0``, ``ls10000_p1e12_s03``, ``ls16384_p1e12_s0``: LS outputs at p = 1e12 at the paper's N,
-  sigma = 0 and 0.3 (sigma: relative standard deviation of the diameters);
+  sigma = 0 and 0.3 (sigma: relative standard deviation of the diameters); the last two at gamma = 1e-2, and
+  ``ls10000_p1e12_s03_gamma1e-3`` the sigma = 0.3 one at gamma = 1e-3, as ``ls10000_p1e12_s0``;
 - ``mls10000_p1e12_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
   (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_p1e12_s0``. Hours of CPU; its MLS run
   checkpoints beside the file as well.
@@ -40,6 +41,9 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     "ls10000_p1e12_s0": (10_000, 0.0, 1e-3, 1e12, 1),
     # gamma = 1e-2: on a 2-core machine shared four ways, gamma = 1e-3 took ~50 min at N = 1e4
     "ls10000_p1e12_s03": (10_000, 0.3, 1e-2, 1e12, 1),
+    # the sigma = 0.3 input at the sigma = 0 input's rate: gamma = 1e-2 left it ~1e-5 from its LP-jammed state in
+    # sqrt(Gamma) - 1, 1e3 times farther than gamma = 1e-3 (docs/calippso.md §9)
+    "ls10000_p1e12_s03_gamma1e-3": (10_000, 0.3, 1e-3, 1e12, 1),
     "ls16384_p1e12_s0": (16_384, 0.0, 1e-2, 1e12, 1),
 }
 #: name -> the LS fixture its MLS search starts from (the paper's MLS parameters, the workflow's defaults)
