@@ -42,7 +42,7 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     # gamma = 1e-2: on a 2-core machine shared four ways, gamma = 1e-3 took ~50 min at N = 1e4
     "ls10000_p1e12_s03": (10_000, 0.3, 1e-2, 1e12, 1),
     # the sigma = 0.3 input at the sigma = 0 input's rate: gamma = 1e-2 left it ~1e-5 from its LP-jammed state in
-    # sqrt(Gamma) - 1, 1e3 times farther than gamma = 1e-3 (docs/calippso.md §9)
+    # sqrt(Gamma) - 1, ~150 times farther than gamma = 1e-3 (docs/calippso.md §9)
     "ls10000_p1e12_s03_gamma1e-3": (10_000, 0.3, 1e-3, 1e12, 1),
     "ls16384_p1e12_s0": (16_384, 0.0, 1e-2, 1e12, 1),
 }

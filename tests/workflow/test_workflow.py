@@ -11,6 +11,7 @@ import pytest
 import yaml
 
 from spherejam.workflow.cost_model import load_configs
+from spherejam.workflow.experiment import Experiment
 
 ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = [sys.executable, "-m", "snakemake"]
@@ -29,8 +30,6 @@ def test_dry_run(config, tmp_path):
     if config == "paper.yaml":
         # Its whole DAG (26 550 jobs) takes Snakemake 1.5-2.5 min to build; the rules are the same as the other
         # configs' and Experiment checks its paths. One LS, one FB and one grid run's MLS job carry its settings.
-        from spherejam.workflow.experiment import Experiment
-
         exp = Experiment(cfg)
         targets = [exp.paths.packing("jammed", next(iter(exp.runs(p))).key) for p in ("ls", "fb")]
         targets.append(str(exp.grid_path(exp.grid_runs()[0])))
@@ -117,8 +116,6 @@ def test_a_run_exits_when_its_jobs_are_done(tmp_path):
     cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
     cfg["results"] = str(tmp_path / "results")
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
-    from spherejam.workflow.experiment import Experiment
-
     exp = Experiment(cfg)
     target = exp.paths.packing("poisson", next(iter(exp.runs("ls"))).key)
     t = time.monotonic()
@@ -195,7 +192,6 @@ def test_dataset_reads_only_the_inputs_of_its_rule(tiny_run, monkeypatch):
     import h5py
 
     from spherejam.workflow.dataset import build_dataset
-    from spherejam.workflow.experiment import Experiment
 
     results, _ = tiny_run
     manifest = results / "experiment.json"
