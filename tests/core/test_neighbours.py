@@ -101,17 +101,18 @@ def test_binnings_put_every_point_in_its_cell(rng, m):
     pts = rng.random((n, dim)) * box
     pts[:5] = [[box, 0.0, 1.0], [-1e-17, 2.0, box - 1e-15], [0.0, 0.0, 0.0], [box * (1 + 1e-16), 1.0, -box / 3],
                [2.0 * box + 0.1, -0.1, 0.5]]  # on and beyond the faces: the periodic image's cell
-    want = np.array([neighbours.cell_of(p, box, m) for p in pts])
+    L, ms = np.full(dim, box), np.full(dim, m, dtype=np.int64)
+    want = np.array([neighbours.cell_of(p, L, ms) for p in pts])
     coords = np.empty((n, dim), dtype=np.int64)
     for i in range(n):
-        neighbours.unravel_cell(want[i], m, coords[i])
+        neighbours.unravel_cell(want[i], ms, coords[i])
         assert all(_in_cell(pts[i, k], coords[i, k], box, m) for k in range(dim))
     interior = np.all(np.abs(pts / (box / m) - np.round(pts / (box / m))) > 1e-9, axis=1)
     assert np.array_equal(want[interior], _reference_cells(pts, box, m)[1][interior])
     assert np.array_equal(want, coords @ (m ** np.arange(dim)))
-    cell, start, order = neighbours.cell_sort(pts, box, m)
+    cell, start, order = neighbours.cell_sort(pts, L, ms)
     assert np.array_equal(cell, want) and start[-1] == n
-    head, nxt, prv, linked = neighbours.link_cells(pts, box, m)
+    head, nxt, prv, linked = neighbours.link_cells(pts, L, ms)
     assert np.array_equal(linked, want)
     for c in range(m**dim):
         members = np.flatnonzero(want == c)  # in index order in both binnings
@@ -144,10 +145,11 @@ def test_stencil_is_the_periodic_block_of_cells_with_its_image_shifts(rng, dim, 
     box = 6.0
     side = box / m
     shift = np.empty(dim)
+    L, ms, periodic = np.full(dim, box), np.full(dim, m, dtype=np.int64), np.ones(dim, dtype=np.bool_)
     for _ in range(5):
         centre = rng.integers(0, m, dim)
-        size = neighbours.stencil_size(w, m, dim)
-        cells = [neighbours.stencil_cell(centre, o, w, m, box, shift) for o in range(size)]
+        size = neighbours.stencil_size(w, ms)
+        cells = [neighbours.stencil_cell(centre, o, w, ms, L, periodic, shift) for o in range(size)]
         if 2 * w + 1 > m:  # wraps onto itself: the whole grid, once, unshifted
             assert cells == list(range(m**dim))
             if m == 1:
@@ -156,7 +158,7 @@ def test_stencil_is_the_periodic_block_of_cells_with_its_image_shifts(rng, dim, 
         offsets = [t[::-1] for t in itertools.product(range(-w, w + 1), repeat=dim)]  # first axis fastest
         assert len(cells) == len(offsets) == len(set(cells))  # each cell once
         for o, off in enumerate(offsets):
-            cn = neighbours.stencil_cell(centre, o, w, m, box, shift)
+            cn = neighbours.stencil_cell(centre, o, w, ms, L, periodic, shift)
             unwrapped = centre + np.array(off)
             assert cn == (np.mod(unwrapped, m) @ (m ** np.arange(dim)))
             assert np.array_equal(shift, box * np.floor_divide(unwrapped, m))  # -L, 0 or +L per axis
@@ -206,8 +208,10 @@ def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m
     st[:, 7] /= st[:, 7].max()
     m = neighbours.cells_per_side(box, rho_list * st[:, 7].max() + skin, 3, n)
     assert m == m_expected
+    frame = neighbours.Frame.of(box, 3)
+    L, half, periodic, ms = frame.lengths, frame.half, frame.periodic, np.full(3, m, dtype=np.int64)
     nbr = np.zeros((n, 64), dtype=np.int32)
-    refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, box, rho_list, skin, m, nbr)
+    refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, L, half, periodic, rho_list, skin, ms, nbr)
     assert max_count <= nbr.shape[1]
     want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)
     assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == want
@@ -215,9 +219,60 @@ def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m
     for _ in range(300):  # a particle leaves its skin sphere (possibly through a face of the box): local update
         i = int(rng.integers(n))
         st[i, 0:3] += rng.normal(0.0, 0.3, 3)
-        assert ed._rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
+        assert ed._rebuild_one(st, refs, i, L, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv, cellof,
+                               scratch,
                                np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64))
     assert np.all((refs >= 0.0) & (refs < box))
     assert np.array_equal(cellof, _reference_cells(refs, box, m)[1])
     want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)
     assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == want
+
+
+@pytest.mark.parametrize("lengths, periodic", [
+    ((3.0, 4.5, 7.0), (True, True, True)),  # a periodic box with three edge lengths
+    ((6.0, 6.0, 2.5), (True, True, False)),  # a slab: no image across z
+    ((5.0, 5.0, 9.0), (False, False, True)),  # a cylinder's frame
+    ((4.0, 4.0, 4.0), (False, False, False)),  # a closed box or a sphere's frame
+])
+def test_pair_search_and_event_lists_in_any_frame_match_brute_force(rng, lengths, periodic):
+    """Pairs meet through images along periodic axes only; a stencil stops at a walled end of the frame."""
+    n, dim = 300, 3
+    L = np.asarray(lengths)
+    pos = rng.random((n, dim)) * L
+    dia = rng.lognormal(0.0, 0.4, n)
+    dia *= 0.9 / dia.max()
+    frame = neighbours.Frame(L, periodic)
+    d = pos[None, :, :] - pos[:, None, :]
+    for k in range(dim):
+        if periodic[k]:
+            d[:, :, k] -= L[k] * np.floor(d[:, :, k] / L[k] + 0.5)
+    r = np.sqrt((d * d).sum(axis=2))
+    near = r < 1.1 * 0.5 * (dia[:, None] + dia[None, :])
+    want = {(i, j) for i, j in zip(*np.nonzero(np.triu(near, 1)))}
+    ci, cj, cr = neighbours.pairs_within(pos, dia, frame, 1.1)
+    assert _as_set(ci, cj) == want and len(ci) == len(want)
+    np.testing.assert_allclose(cr, r[ci, cj], rtol=1e-14)
+    assert neighbours.closest_pair(pos, dia, frame)[2] == pytest.approx(np.min((r / (0.5 * (dia[:, None]
+                                                                          + dia[None, :])))[np.triu_indices(n, 1)]))
+    # the event-driven engine's lists in the same frame
+    rho_list, skin = 0.5, 0.2
+    st = np.zeros((n, 8))
+    st[:, 0:3] = pos
+    st[:, 7] = dia
+    ms = neighbours.cells_per_axis(frame, rho_list * dia.max() + skin, n)
+    nbr = np.zeros((n, 128), dtype=np.int32)
+    refs, nnb, *_ = ed.build_lists(st, frame.lengths, frame.half, frame.periodic, rho_list, skin, ms, nbr)
+    cut = rho_list * 0.5 * (dia[:, None] + dia[None, :]) + skin
+    listed = (r < cut) & ~np.eye(n, dtype=bool)
+    assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == [set(np.flatnonzero(row)) for row in listed]
+
+
+def test_a_walled_stencil_stops_at_the_wall():
+    ms = np.array([4, 4, 4], dtype=np.int64)
+    L = np.full(3, 4.0)
+    shift = np.empty(3)
+    periodic = np.array([True, True, False])
+    corner = np.array([0, 3, 0])
+    cells = [neighbours.stencil_cell(corner, o, 1, ms, L, periodic, shift) for o in range(27)]
+    assert cells.count(-1) == 9  # the layer below z = 0 is beyond the wall; x and y still wrap
+    assert len({c for c in cells if c >= 0}) == 18

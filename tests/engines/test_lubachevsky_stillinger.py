@@ -246,10 +246,11 @@ def test_checkpoint_resume_finishes_identically(tmp_path):
 
 
 def test_checkpoint_saves_the_engine_state_whole_and_older_layouts_resume(tmp_path):
-    """A checkpoint holds the engine's EventState minus its work space, under the names checkpoints had before the
-    state object; one in that older layout (no ``box``, no ``multi``) resumes bitwise identically."""
+    """A checkpoint holds the engine's EventState minus its work space and its frame (the input's container), under
+    the names checkpoints had before the state object; one in the older layouts (no ``multi``; ``m`` cells per side
+    instead of ``ms`` per axis, before containers) resumes bitwise identically."""
     from spherejam.core.checkpoint import load_checkpoint, save_checkpoint
-    from spherejam.engines.kernels.event_driven import WORKSPACE, EventState
+    from spherejam.engines.kernels.event_driven import FRAME, WORKSPACE, EventState
 
     packing = poisson_packing(200, 0.2, seed=5)
     reference = run_ls(packing, 0.05, seed=4, progress_interval=1e9)
@@ -259,10 +260,13 @@ def test_checkpoint_saves_the_engine_state_whole_and_older_layouts_resume(tmp_pa
     arrays, attrs = load_checkpoint(ckpt, "ls")
     engine_arrays = {k for k in arrays if k.startswith("engine_")}
     assert engine_arrays == {f"engine_{k}" for k in ("st", "perm", "refs", "nbr", "nnb", "head", "nxt", "prv",
-                                                     "cellof")}
+                                                     "cellof", "ms")}
     scalars = attrs["engine"]["engine"]  # the stepper's attributes, then the engine's
-    assert set(scalars) | {k[len("engine_"):] for k in engine_arrays} == set(EventState._fields) - set(WORKSPACE)
-    del scalars["box"], scalars["multi"]  # as written before the state object and before multi-image lists
+    assert set(scalars) | {k[len("engine_"):] for k in engine_arrays} == (set(EventState._fields) - set(WORKSPACE)
+                                                                         - set(FRAME))
+    del scalars["multi"]  # as written before multi-image lists
+    scalars["m"] = int(arrays.pop("engine_ms")[0])  # and before containers
+    scalars["box"] = packing.box
     save_checkpoint(ckpt, "ls", arrays, attrs)
     resumed = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, progress_interval=1e9)
     assert resumed.stats.resumed and resumed.stats.steps == reference.stats.steps

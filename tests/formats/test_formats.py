@@ -211,8 +211,9 @@ BAD_FILES = {
          ["p.data", "atom style"]),
         ("p.data", "x\n\n3 atoms\n0 4 xlo xhi\n0 4 ylo yhi\n0 4 zlo zhi\n\nAtoms # sphere\n\n1 1 1 1 1 1 1\n"
          "2 1 1 1 2 2 2\n", ["p.data", "holds 2 atoms"]),
-        ("p.data", "x\n\n2 atoms\n0 4 xlo xhi\n0 4 ylo yhi\n0 5 zlo zhi\n\nAtoms\n\n1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n",
-         ["p.data", "cubes"]),
+        ("p.data", "x container={\"lengths\": [4, 4, 4], \"periodic\": [1, 1, 1], \"planes\": [0, 0, 0]}\n\n2 atoms\n"
+         "0 4 xlo xhi\n0 4 ylo yhi\n0 5 zlo zhi\n\nAtoms\n\n1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n",
+         ["p.data", "not the frame of container"]),
         ("p.data", "x\n\n2 atoms\n0 4 xlo xhi\n0 4 ylo yhi\n0 4 zlo zhi\n\nAtoms\n\n1 1 1 1 1 1 1\n2 1 1 1 1.5 1 1\n",
          ["p.data", "FAIL"]),
     ],
@@ -258,3 +259,32 @@ def test_export_every_format_then_import_through_the_cli(tmp_path, capsys, touch
                     ["p.xyz", "--format"])
     _one_line_error(capsys, ["import", str(tmp_path / "p.data"), "--box", "2", "-o", str(tmp_path / "y.h5")],
                     tmp_path / "y.h5", ["--box"])
+
+
+def test_containers_go_through_lammps_and_xyz_and_other_formats_refuse_them(tmp_path, capsys):
+    """A packing in a container keeps it through a LAMMPS data file (title line; boundary and wall commands as
+    comments), extended XYZ gives its frame and pbc flags, and a format that holds only a periodic cube refuses it
+    in one line; a non-cubic LAMMPS box without a container is a periodic box with three edge lengths."""
+    from spherejam.core.packing_io import read_packing, write_packing
+    from spherejam.core.seeding import poisson_packing
+
+    p = poisson_packing(200, sigma=0.3, seed=2, container="cylinder:diameter=6,capped=yes")
+    write_packing(tmp_path / "c.h5", p)
+    assert main(["export", str(tmp_path / "c.h5"), "--format", "lammps", "-o", str(tmp_path / "c.data")]) == 0
+    text = (tmp_path / "c.data").read_text()
+    assert "# boundary f f f" in text and "region tube cylinder z" in text and "wall/reflect zlo EDGE zhi EDGE" in text
+    assert main(["import", str(tmp_path / "c.data"), "-o", str(tmp_path / "back.h5")]) == 0
+    back = read_packing(tmp_path / "back.h5")
+    assert back.container == p.container and np.array_equal(back.positions, p.positions)
+    assert main(["export", str(tmp_path / "c.h5"), "-o", str(tmp_path / "c.xyz")]) == 0
+    header = (tmp_path / "c.xyz").read_text().splitlines()[1]
+    assert 'pbc="F F F"' in header and f"{p.container.lengths[2]!r}" in header and "container=cylinder" in header
+    capsys.readouterr()
+    for fmt in ("gsd", "packing-generation", "calippso-jl"):
+        _one_line_error(capsys, ["export", str(tmp_path / "c.h5"), "--format", fmt, "-o", str(tmp_path / f"x-{fmt}")],
+                        tmp_path / f"x-{fmt}", ["holds only a periodic cube", "cylinder"])
+    (tmp_path / "b.data").write_text("x\n\n2 atoms\n0 4 xlo xhi\n0 4 ylo yhi\n0 5 zlo zhi\n\nAtoms\n\n"
+                                     "1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n")
+    assert main(["import", str(tmp_path / "b.data"), "-o", str(tmp_path / "b.h5")]) == 0
+    box = read_packing(tmp_path / "b.h5").container
+    assert box.lengths == (4.0, 4.0, 5.0) and all(box.periodic) and not box.has_walls

@@ -21,7 +21,7 @@ def bond_network(packing: Packing, cutoff: float = Q6_CUTOFF):
     """Bonds of the Steinhardt network: pairs i < j with r_ij < ``cutoff`` * D_ij and their vectors, one per periodic
     image within reach (:func:`spherejam.core.neighbours.pair_images`)."""
     require(math.isfinite(cutoff) and cutoff > 0, "cutoff", cutoff, "must be a finite number > 0")
-    return neighbours.pair_images(packing.positions, packing.diameters, packing.box, cutoff)
+    return neighbours.pair_images(packing.positions, packing.diameters, packing.frame, cutoff)
 
 
 def steinhardt(packing: Packing, l: int = 6, cutoff: float = Q6_CUTOFF, bonds=None):  # noqa: E741 (degree l)
@@ -89,7 +89,8 @@ def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRES
     order = np.lexsort((point, query))
     nlist = freud.locality.NeighborList.from_arrays(packing.n, packing.n, query[order], point[order], vec[order])
     solid = freud.order.SolidLiquid(6, q_threshold, int(solid_bonds), normalize_q=True)
-    solid.compute((freud.box.Box.cube(packing.box), packing.positions - packing.box / 2), neighbors=nlist)
+    box = packing.require_cube("the crystalline fraction (freud)")
+    solid.compute((freud.box.Box.cube(box), packing.positions - box / 2), neighbors=nlist)
     crystalline = np.asarray(solid.num_connections) >= solid_bonds
     if not crystalline.any():
         return 0.0, 0.0

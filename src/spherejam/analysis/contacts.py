@@ -66,7 +66,7 @@ def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray
     Returns ``(i, j, h)`` sorted by (i, j, h).
     """
     require(math.isfinite(max_gap) and max_gap > -1, "max_gap", max_gap, "must be a finite number > -1")
-    i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.box, 1.0 + max_gap)
+    i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.frame, 1.0 + max_gap)
     dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
     return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0
 
@@ -230,7 +230,7 @@ def tolerance_scan(
 
 def brute_force_contacts(packing: Packing, tolerance: float):
     """O(N^2) reference for :func:`contact_pairs` over every periodic image, no cell list (tests)."""
-    x, d, box = packing.positions, packing.diameters, packing.box
+    x, d, box = packing.positions, packing.diameters, packing.require_cube("brute_force_contacts")
     reach = math.ceil((1.0 + tolerance) * float(d.max()) / box) + 1
     ii, jj = np.triu_indices(packing.n, 1)
     dij = 0.5 * (d[ii] + d[jj])

@@ -20,7 +20,7 @@ def pair_correlation(packing: Packing, r_max: float = 5.0, bins: int = 500) -> t
     require(math.isfinite(r_max) and r_max > 0, "r_max", r_max, "must be a finite number > 0")
     require(int(bins) == bins and bins >= 1, "bins", bins, "must be an integer >= 1")
     abar = packing.mean_diameter
-    r_cut = min(r_max * abar, 0.5 * packing.box)
+    r_cut = min(r_max * abar, 0.5 * packing.require_cube("g(r)"))
     unit = np.full(packing.n, r_cut)
     _, _, r = neighbours.pairs_within(packing.positions, unit, packing.box, 1.0)
     edges = np.linspace(0.0, r_cut, int(bins) + 1)

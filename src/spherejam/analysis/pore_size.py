@@ -56,6 +56,9 @@ def _uncovered(samples, positions, reach, box, m, visit, cell, start, order, cov
     """
     ns, dim = samples.shape
     noff = visit.shape[0]
+    lengths = np.full(dim, box)  # the periodic cube as a frame (core.neighbours)
+    ms = np.full(dim, m, dtype=np.int64)
+    periodic = np.ones(dim, dtype=np.bool_)
     coords = np.empty(dim, dtype=np.int64)
     shift = np.empty(dim)  # unused: differences are folded to the minimum image
     for s in range(ns):
@@ -70,7 +73,7 @@ def _uncovered(samples, positions, reach, box, m, visit, cell, start, order, cov
             coords[k] = neighbours.axis_cell(samples[s, k], box, m)
         free = 1
         for o in range(noff):
-            cj = neighbours.stencil_cell(coords, visit[o], 1, m, box, shift)
+            cj = neighbours.stencil_cell(coords, visit[o], 1, ms, lengths, periodic, shift)
             for idx in range(start[cj], start[cj + 1]):
                 i = order[idx]
                 r2 = 0.0
@@ -101,12 +104,12 @@ def pore_size_entropy(
         require(int(samples) == samples and samples >= 1, "pore_samples", samples, "must be an integer >= 1")
     require(int(min_samples) == min_samples and min_samples >= 1, "min_samples", min_samples,
             "must be an integer >= 1")
-    n, dim, box = packing.n, packing.dim, packing.box
+    n, dim, box = packing.n, packing.dim, packing.require_cube("the pore-size entropy")
     threshold = packing.mean_diameter / (2.0 * PORE_ALPHA)
     reach = 0.5 * packing.diameters + threshold
     m = neighbours.cells_per_side(box, float(reach.max()), dim, n)
     visit = np.argsort(np.abs(neighbours.neighbour_offsets(dim, m)).sum(axis=1), kind="stable")  # own cell first
-    cell, start, order = neighbours.cell_sort(packing.positions, box, m)
+    cell, start, order = neighbours.cell_sort(packing.positions, np.full(dim, box), np.full(dim, m, dtype=np.int64))
     if dim == 3:  # voxels of side ~ min reach / 6, at most 256^3 of them
         g = int(min(256, max(1, math.ceil(6.0 * box / float(reach.min())))))
         covered = _covered_voxels(packing.positions, reach, box, g)

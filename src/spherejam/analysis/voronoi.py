@@ -135,7 +135,7 @@ def voronoi_volumes(packing: Packing, radical: bool = True) -> np.ndarray:
     require(packing.dim == 3, "dimension d", packing.dim, "the Voronoi tessellation is defined for d = 3 only")
     # In units of the box side: qhull's tolerances are absolute, and the lifted coordinate |x|^2 of a box of 1e20
     # would swamp the others (a "not full dimensional" error); the volumes are scaled back at the end.
-    n, unit, box = packing.n, packing.box, 1.0
+    n, unit, box = packing.n, packing.require_cube("the Voronoi tessellation"), 1.0
     positions, diameters = packing.positions / unit, packing.diameters / unit
     weights = 0.25 * diameters**2 if radical else np.zeros(n)
     spacing = (box**3 / n) ** (1.0 / 3.0)

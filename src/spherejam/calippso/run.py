@@ -331,6 +331,7 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_to
               threads, crossover, active_set, warm_start, constraint_generation) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
+    packing.require_cube("CALiPPSO")  # wall rows: docs/containers.md §5
     n = packing.n
     unit = float(packing.diameters.max())  # internal length unit: the initial largest diameter
     return _Settings(

@@ -23,9 +23,14 @@ def register(sub) -> None:
                      help="relative std of log-normal diameters, 0 ... 1 (default 0)")
     p.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     p.add_argument("--dim", type=int, default=3, choices=(2, 3, 4, 5), help="dimension d (default 3)")
+    p.add_argument("--container", metavar="SPEC", default=None,
+                   help="the container (docs/containers.md): periodic (default), periodic:x=L,y=L,z=L, slab:height=H, "
+                        "box:x=L,y=L,z=L, cylinder:diameter=D[,length=L][,capped=yes], sphere:diameter=D; lengths "
+                        "in mean diameters of the final packing; a spec giving every length fixes N")
     p.add_argument(
-        "--phi-nominal", type=FIELDS["phi_nominal"].arg, default=0.6,
-        help="packing fraction of the mean-1 nominal diameters; fixes the box side (default 0.6)",
+        "--phi-nominal", type=FIELDS["phi_nominal"].arg, default=None,
+        help="packing fraction of the mean-1 nominal diameters; fixes the box side (default 0.6); with --container, "
+             "the final packing fraction the container is sized for (default 0.62)",
     )
     p.add_argument("-o", "--output", type=output_file, required=True, help="output packing file (.h5)")
     p.set_defaults(func=_seed)
@@ -72,21 +77,27 @@ def _seed(args) -> int:
     from ..core.seeding import poisson_packing
     from ..core.size_distribution import lognormal_spec, parse
 
+    from ..core.container import number_for
+    from ..core.container import parse as parse_container
+
     dist = parse(args.psd if args.psd is not None else lognormal_spec(args.sigma or 0.0), "--psd")
+    container = parse_container(args.container, "--container") if args.container is not None else None
     n = args.n
     if dist.fixed_n is not None:
         if n is not None and n != dist.fixed_n:
             raise InputError(f"--n={n}: {dist.spec} holds {dist.fixed_n} diameters (leave out --n)")
         n = dist.fixed_n
-    elif n is None:
-        raise InputError("--n: required (only a list: distribution gives N itself)")
+    elif n is None and (container is None or number_for(container, 1.0) is None):
+        raise InputError("--n: required (only a list: distribution, or a container that gives every length, fixes N)")
     check_outputs({"-o/--output": args.output}, inputs=_psd_inputs(dist))
-    packing = poisson_packing(n, seed=args.seed, phi_nominal=args.phi_nominal, dim=args.dim, psd=dist)
+    packing = poisson_packing(n, seed=args.seed, phi_nominal=args.phi_nominal, dim=args.dim, psd=dist,
+                              container=container)
     write_packing(args.output, packing)
     sample = packing.metadata["size_distribution"]["sample"]
     size = (f"sigma={dist.sigma:g}" if dist.family == "lognormal"
             else f"psd={dist.spec} delta={sample['delta']:.4f} d_max/d_min={sample['size_ratio']:.3g}")
-    print(f"{args.output}: N={packing.n} d={packing.dim} {size} seed={args.seed} phi={packing.phi:.3e}")
+    where = "" if packing.container.is_periodic_cube else f" container={packing.container.spec}"
+    print(f"{args.output}: N={packing.n} d={packing.dim} {size}{where} seed={args.seed} phi={packing.phi:.3e}")
     return 0
 
 
@@ -107,9 +118,11 @@ def summary(path: Path) -> dict:
         "n": packing.n,
         "dim": packing.dim,
         "box": packing.box,
+        "container": packing.container.to_dict(),
         "phi": packing.phi,
         "polydispersity": packing.polydispersity,
         "size_ratio": float(packing.diameters.max() / packing.diameters.min()),
+        "container_in_diameters": packing.container.in_diameters(packing.mean_diameter),
         "closest_pair": [i, j],
         "min_gap": h - 1.0,
         "algorithm": m.get("algorithm"),
@@ -127,7 +140,12 @@ def _info(args) -> int:
         print(json.dumps(s, indent=2, default=str))
         return 0
     print(f"{s['path']}")
-    print(f"  N = {s['n']}, d = {s['dim']}, L = {s['box']:.10g}")
+    c = s["container"]
+    if c["spec"] == "periodic" and len(set(c["lengths"])) == 1:
+        print(f"  N = {s['n']}, d = {s['dim']}, L = {s['box']:.10g}")
+    else:
+        size = ", ".join(f"{k} = {v:.6g}" for k, v in s["container_in_diameters"].items())
+        print(f"  N = {s['n']}, d = {s['dim']}, container {c['spec']} (asked); achieved in mean diameters: {size}")
     print(f"  phi = {s['phi']:.10f}   polydispersity sigma = {s['polydispersity']:.4f}"
           f"   size ratio = {s['size_ratio']:.3f}")
     print(f"  closest pair {s['closest_pair']}: normalised gap {s['min_gap']:.3e}")
@@ -193,6 +211,7 @@ def _import(args) -> int:
     packing = read(args.path, fmt, tolerance=args.tolerance, **options)
     write_packing(args.output, packing)  # never with overlaps: formats.read removed what --tolerance let through
     note = packing.metadata["source"].get("note")
-    print(f"{args.output}: {packing.n} spheres from {fmt} {args.path}, d={packing.dim}, L={packing.box:.10g}, "
+    where = f"L={packing.box:.10g}" if packing.container.is_periodic_cube else f"container {packing.container.spec}"
+    print(f"{args.output}: {packing.n} spheres from {fmt} {args.path}, d={packing.dim}, {where}, "
           f"phi={packing.phi:.10f}" + (f" ({note})" if note else ""))
     return 0

@@ -7,7 +7,8 @@ Layout of a packing file::
     /history/*   optional per-window (or per-iteration) columns of the run that made it
     /<group>/*   optional extra arrays (e.g. /contacts/forces of a CALiPPSO packing)
     attrs: format, box, dim, n, phi, algorithm, seed, reduced_pressure, parameters (JSON), counters (JSON),
-           metadata (JSON, everything else), spherejam_version, git_commit, created, package_versions (JSON)
+           metadata (JSON, everything else), spherejam_version, git_commit, created, package_versions (JSON),
+           container (JSON, only for a container other than the periodic cube, whose box is then NaN)
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import atomic_output, special_kind
+from .container import Container
 from .errors import OverlapError, PackingFileError
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .provenance import provenance
@@ -62,9 +64,10 @@ def write_packing(
     Raises :class:`OverlapError` (and writes nothing) if the packing overlaps beyond ``tolerance``.
     """
     path = Path(path)
-    if not BOX_SIDE.ok(packing.box):
-        raise PackingFileError(f"refusing to write {path}: box side {packing.box!r}; {BOX_SIDE.rule()} (L**d must "
-                               "stay a finite number)")
+    for side in packing.container.lengths:
+        if not BOX_SIDE.ok(side):
+            raise PackingFileError(f"refusing to write {path}: box side {side!r}; {BOX_SIDE.rule()} (L**d must "
+                                   "stay a finite number)")
     packing.validate(tolerance, what=f"refusing to write {path}")
     h5py = _h5py()
     meta = dict(packing.metadata)
@@ -78,6 +81,8 @@ def write_packing(
             a["dim"] = packing.dim
             a["n"] = packing.n
             a["phi"] = packing.phi
+            if not packing.container.is_periodic_cube:
+                a["container"] = dumps(packing.container.to_dict())
             for key in _SCALAR_KEYS:
                 value = meta.pop(key, None)
                 if value is not None:
@@ -171,6 +176,7 @@ def read_packing(
             positions = pos_ds[()]
             diameters = dia_ds[()]
             box = float(f.attrs.get("box", math.nan))
+            container = f.attrs.get("container")
             history = None
             if with_history and "history" in f:
                 history = {k: v[()] for k, v in f["history"].items()}
@@ -180,18 +186,25 @@ def read_packing(
         # h5py reports truncated or non-HDF5 files as OSError with internal detail; keep the first line only.
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         reject_file(path, f"not a readable HDF5 packing file ({reason})")
-    packing = validated_packing(path, positions, diameters, box, meta, tolerance)
+    if container is not None:
+        try:
+            container = Container.from_dict(json.loads(container))
+        except (json.JSONDecodeError, TypeError, ValueError) as exc:
+            reject_file(path, f"corrupt container attribute ({str(exc).splitlines()[0]})")
+    packing = validated_packing(path, positions, diameters, box, meta, tolerance, container)
     return (packing, history or {}) if with_history else packing
 
 
 def validated_packing(
     path, positions: np.ndarray, diameters: np.ndarray, box: float, metadata: dict[str, Any] | None = None,
-    tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE,
+    tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE, container: Container | None = None,
 ) -> Packing:
     """The checks every packing reader runs (HDF5 and the other formats, :mod:`spherejam.formats`).
 
-    Shapes, finiteness, centres in [0, L), at least 2 spheres, and (unless ``tolerance`` is None) no pair
-    overlapping beyond ``tolerance``; any problem raises :class:`PackingFileError` naming ``path``.
+    Shapes, finiteness, centres in [0, L) (in the container's frame, and inside its walls), at least 2 spheres, and
+    (unless ``tolerance`` is None) no pair overlapping and no sphere penetrating a wall beyond ``tolerance``; any
+    problem raises :class:`PackingFileError` naming ``path``. ``container`` None is the periodic cube of side
+    ``box``.
     """
     positions = np.asarray(positions)
     diameters = np.asarray(diameters)
@@ -201,15 +214,23 @@ def validated_packing(
         reject_file(path, f"diameters have shape {diameters.shape}, expected ({positions.shape[0]},)")
     if positions.shape[0] < 2:
         reject_file(path, f"holds {positions.shape[0]} sphere(s); a packing needs at least 2")
-    if not BOX_SIDE.ok(box):
-        reject_file(path, f"box side is {box!r}; {BOX_SIDE.rule()} (L**d must stay a finite number)")
+    if container is not None and container.dim != positions.shape[1]:
+        reject_file(path, f"container {container.spec} has {container.dim} axes, positions have {positions.shape[1]}")
+    sides = [box] if container is None else list(container.lengths)
+    for side in sides:
+        if not BOX_SIDE.ok(side):
+            reject_file(path, f"box side is {side!r}; {BOX_SIDE.rule()} (L**d must stay a finite number)")
     if not np.all(np.isfinite(positions)):
         reject_file(path, "positions contain NaN or infinity")
     if not (np.all(np.isfinite(diameters)) and np.all(diameters > 0)):
         reject_file(path, "diameters must be finite and > 0")
-    if np.any(positions < 0) or np.any(positions >= box):
-        reject_file(path, f"positions lie outside the box [0, {box})")
-    packing = Packing(positions, diameters, box, metadata or {})
+    upper = box if container is None else np.asarray(container.lengths)
+    if np.any(positions < 0) or np.any(positions >= upper):
+        where = f"[0, {box})" if container is None else f"frame of container {container.spec}"
+        reject_file(path, f"positions lie outside the box {where}")
+    if container is not None and np.any(container.wall_distance(positions) < 0):
+        reject_file(path, f"centres lie outside the walls of container {container.spec}")
+    packing = Packing(positions, diameters, box, metadata or {}, container)
     if tolerance is not None:
         try:
             packing.validate(tolerance, what=str(path))
@@ -225,12 +246,16 @@ def export_xyz(packing: Packing, path: str | os.PathLike) -> Path:
     pos = packing.positions
     if packing.dim == 2:
         pos = np.column_stack([pos, np.zeros(packing.n)])
-    L = packing.box
-    pbc = '"T T T"' if packing.dim == 3 else '"T T F"'
+    c = packing.container
+    lx, ly = c.lengths[0], c.lengths[1]
+    lz = c.lengths[2] if packing.dim == 3 else c.lengths[0]
+    flags = [("T" if p else "F") for p in c.periodic] + ([] if packing.dim == 3 else ["F"])
+    pbc = '"' + " ".join(flags) + '"'
     alg = str(packing.metadata.get("algorithm", "unknown"))
+    where = "" if c.is_periodic_cube else f" container={c.spec}"
     header = (
-        f'Lattice="{L!r} 0.0 0.0 0.0 {L!r} 0.0 0.0 0.0 {L!r}" Origin="0.0 0.0 0.0" '
-        f"Properties=species:S:1:pos:R:3:radius:R:1 pbc={pbc} phi={packing.phi!r} algorithm={alg}"
+        f'Lattice="{lx!r} 0.0 0.0 0.0 {ly!r} 0.0 0.0 0.0 {lz!r}" Origin="0.0 0.0 0.0" '
+        f"Properties=species:S:1:pos:R:3:radius:R:1 pbc={pbc} phi={packing.phi!r} algorithm={alg}{where}"
     )
     radius = packing.diameters / 2.0
     lines = [str(packing.n), header]

@@ -1,4 +1,5 @@
-"""Poisson seeding: N uniform random centres in a periodic cube, with diameters from any size distribution.
+"""Poisson seeding: N uniform random centres in a periodic cube (or any container: core/container), with diameters
+from any size distribution.
 
 By default the diameters follow the paper's log-normal law with mean 1 and relative standard deviation sigma (read as
 the std of D itself: s^2 = ln(1 + sigma^2), mu = -s^2/2; the paper could also be read with sigma = std(ln D); the two
@@ -13,10 +14,14 @@ import math
 
 import numpy as np
 
+from . import container as containers
 from .errors import require
 from .packing import Packing, ball_volume
 from .size_distribution import MAX_SIGMA, LogNormal, SizeDistribution, lognormal_spec, parse, sample_descriptors
 from .validation import N_MAX
+
+#: The packing fraction the nominal diameters fill in the periodic cube (it only sets the cube's side).
+CUBE_PHI_NOMINAL = 0.6
 
 __all__ = ["MAX_SIGMA", "box_for", "lognormal_diameters", "poisson_packing", "rng_for"]
 
@@ -41,8 +46,8 @@ def box_for(diameters: np.ndarray, phi_nominal: float, dim: int = 3) -> float:
 
 
 def poisson_packing(
-    n: int | None, sigma: float = 0.0, seed: int = 0, phi_nominal: float = 0.6, dim: int = 3,
-    psd: str | SizeDistribution | None = None,
+    n: int | None, sigma: float = 0.0, seed: int = 0, phi_nominal: float | None = None, dim: int = 3,
+    psd: str | SizeDistribution | None = None, container: str | containers.ContainerSpec | None = None,
 ) -> Packing:
     """A Poisson packing: uniform centres, relative sizes from a size distribution, closest pair just touching.
 
@@ -56,18 +61,29 @@ def poisson_packing(
         The size distribution (a spec such as ``gaussian:delta=0.2``); default ``lognormal:sigma=<sigma>``.
     seed : int
         Seed of this packing's independent random stream; the same seed gives bitwise the same packing.
-    phi_nominal : float
-        Packing fraction the mean-1 nominal diameters would have; it only fixes the box side L (length unit = mean
-        nominal diameter). The actual diameters are the nominal ones scaled so that the closest pair touches, so the
-        actual phi is tiny (~1e-5 for N = 1e4).
+    phi_nominal : float, optional
+        Packing fraction the mean-1 nominal diameters would have (default 0.6 in the cube); it only fixes the box
+        side L (length unit = mean nominal diameter). The actual diameters are the nominal ones scaled so that
+        the closest pair touches, so the actual phi is tiny (~1e-5 for N = 1e4).
     dim : int
         Dimension d (2 ... 5).
+    container : str, optional
+        A container spec (``cylinder:diameter=10``; docs/containers.md); default the periodic cube. Its lengths are
+        in mean diameters of the final packing: the frame is sized for ``phi_nominal`` (here the expected final
+        packing fraction, default :data:`~spherejam.core.container.PHI_ESTIMATE`), centres are uniform inside the
+        walls, and the diameters are scaled until the closest pair touches or a sphere touches a wall. A spec that
+        gives every length fixes N (``n`` None, or that number).
     """
     if psd is None:
         require(isinstance(sigma, (int, float, np.floating)) and math.isfinite(sigma) and 0 <= sigma <= MAX_SIGMA,
                 "sigma", sigma, f"must be in [0, {MAX_SIGMA}]")
         psd = lognormal_spec(sigma)
     distribution = parse(psd)
+    spec = containers.parse(container)
+    if not (spec.is_periodic and not spec.lengths):
+        return _poisson_in_container(n, distribution, spec, seed,
+                                     containers.PHI_ESTIMATE if phi_nominal is None else phi_nominal, dim)
+    phi_nominal = CUBE_PHI_NOMINAL if phi_nominal is None else phi_nominal
     if n is None:
         require(distribution.fixed_n is not None, "n", n, "must be given (only a list: distribution fixes N)")
         n = distribution.fixed_n
@@ -89,3 +105,43 @@ def poisson_packing(
         "size_distribution": {**distribution.provenance(), "sample": sample_descriptors(nominal).as_dict()},
     }
     return Packing(positions, nominal, box, metadata).scaled_to_contact()
+
+
+def _uniform_inside(container: containers.Container, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` centres uniform inside the container's walls (strictly: each then fits a sphere of some radius > 0).
+    Curved containers draw in the frame and keep the points inside, batch by batch."""
+    lengths = np.asarray(container.lengths)
+    out = np.empty((0, container.dim))
+    while len(out) < n:
+        need = n - len(out)
+        batch = rng.random((need if container.curved is None else 2 * need + 16, container.dim)) * lengths
+        out = np.concatenate([out, batch[container.contains(batch)]])
+    return out[:n]
+
+
+def _poisson_in_container(n, distribution: SizeDistribution, spec: containers.ContainerSpec, seed: int,
+                          phi_estimate: float, dim: int) -> Packing:
+    require(isinstance(dim, (int, np.integer)) and dim == 3, "dim", dim, "containers are implemented in d = 3")
+    if n is None:
+        n = distribution.fixed_n
+    if n is None:
+        mean_volume = math.pi / 6.0 * distribution.descriptors().m3
+        n = containers.number_for(spec, mean_volume, phi_estimate)
+        require(n is not None, "n", n, f"must be given (the container {spec.text} leaves a length to N)")
+    require(isinstance(n, (int, np.integer)) and 2 <= n <= N_MAX, "n", n, f"must be an integer in [2, {N_MAX}]")
+    rng = rng_for(seed)
+    nominal = distribution.draw(n, rng)
+    container = containers.build(spec, n, nominal, phi_estimate, dim)
+    positions = _uniform_inside(container, n, rng)
+    parameters = {"n": int(n)}
+    if isinstance(distribution, LogNormal):
+        parameters["sigma"] = float(distribution.sigma)
+    parameters.update({"phi_nominal": float(phi_estimate), "dim": int(dim), "psd": distribution.spec,
+                       "container": container.spec})
+    metadata = {
+        "algorithm": "poisson",
+        "seed": int(seed),
+        "parameters": parameters,
+        "size_distribution": {**distribution.provenance(), "sample": sample_descriptors(nominal).as_dict()},
+    }
+    return Packing(positions, nominal, math.nan, metadata, container).scaled_to_contact()

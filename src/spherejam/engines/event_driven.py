@@ -12,6 +12,8 @@ each window:
 
 * reduced pressure p = PV/(N k_B T) = 1 + |X| / (2 E dt) from the collision virial X = sum |r_ij| (v_i - v_j).n_ij
   (pre-collision velocities, growth term excluded), E = kinetic energy at the end of the window, dt its duration;
+  in a container a wall collision adds r_i times the impulse the wall gives, with V the container's volume
+  (docs/containers.md §3);
 * thermostat: velocities are rescaled to exactly E = (3/2) N T;
 * clock reset: rho0 += gamma dt, t = 0 (keeps times small near jamming; every event is re-predicted, none lost);
 * audit: every listed pair is checked for overlap (relative tolerance 1e-10), else :class:`SimulationError`.
@@ -28,8 +30,9 @@ from typing import Any, get_type_hints
 
 import numpy as np
 
+from ..core.container import Container
 from ..core.errors import SimulationError
-from ..core.neighbours import cell_sort, cells_per_side
+from ..core.neighbours import Frame, cell_sort, cells_per_axis
 from .kernels import event_driven as ed
 
 DEFAULT_TEMPERATURE = 0.2
@@ -55,6 +58,8 @@ class WindowStats:
     list_rebuilds: int
     reached_target: bool
     self_contact: bool = False  #: the largest sphere touched its own image (rho reached rho_limit)
+    wall_collisions: int = 0
+    wall_impulse: float = 0.0  #: total impulse the walls gave the spheres (growth term excluded), m = 1
 
 
 def _aligned_zeros(shape, dtype=np.float64) -> np.ndarray:
@@ -95,10 +100,21 @@ class ListOptions:
     all_images: bool = False
 
 
+def _frame_fields(box) -> dict:
+    """The :class:`~.kernels.event_driven.EventState` fields of a cube side L or a container."""
+    container = box if isinstance(box, Container) else Container.cube(float(box))
+    if container.dim != 3:
+        raise SimulationError(f"the event-driven engine runs in d = 3 (container {container.spec})")
+    frame = Frame.of(container)
+    return {"lengths": frame.lengths, "half": frame.half, "periodic": frame.periodic,
+            "walls": container.wall_array(), "has_walls": container.has_walls}
+
+
 def fresh_state(positions, nominal, box, rho, velocities, gamma) -> ed.EventState:
     """An :class:`~.kernels.event_driven.EventState` of N spheres at time 0 whose lists are still to be built
-    (:meth:`LSEngine.rebuild_lists`): positions (N, 3), nominal diameters D_i0 (N,), box side L, scale factor rho0
-    (no pair may overlap at it), velocities (N, 3) and compression rate gamma = d rho / dt >= 0."""
+    (:meth:`LSEngine.rebuild_lists`): positions (N, 3), nominal diameters D_i0 (N,), box side L or a
+    :class:`~spherejam.core.container.Container`, scale factor rho0 (no pair may overlap, and no sphere cross a wall,
+    at it), velocities (N, 3) and compression rate gamma = d rho / dt >= 0."""
     positions = np.asarray(positions, dtype=np.float64)
     n = positions.shape[0]
     st = _aligned_zeros((n, 8))
@@ -109,25 +125,35 @@ def fresh_state(positions, nominal, box, rho, velocities, gamma) -> ed.EventStat
     empty = np.zeros(0, dtype=np.int64)
     return ed.EventState(st=st, perm=np.arange(n), refs=np.zeros((n, 3)), nbr=_aligned_zeros((n, cap), np.int32),
                          nnb=np.zeros(n, dtype=np.int32), head=empty, nxt=empty, prv=empty, cellof=empty,
-                         **ed.workspace(n, cap), box=float(box), m=1, rho0=float(rho), gamma=float(gamma),
-                         rho_list=float(rho), skin=0.0, multi=False, list_rebuilds=0)
+                         **ed.workspace(n, cap), **_frame_fields(box), ms=np.ones(3, dtype=np.int64),
+                         rho0=float(rho), gamma=float(gamma), rho_list=float(rho), skin=0.0, multi=False,
+                         list_rebuilds=0)
 
 
-def restore_state(arrays: dict[str, np.ndarray], scalars: dict[str, Any], box: float) -> ed.EventState:
+def restore_state(arrays: dict[str, np.ndarray], scalars: dict[str, Any], box) -> ed.EventState:
     """The state a checkpoint saved (:meth:`~.kernels.event_driven.EventState.persistent`), work space fresh.
 
-    Checkpoints written before the state object lack ``box`` (the input's) and, before multi-image lists,
-    ``multi`` (they are single-image); their fields are otherwise the same."""
-    scalars = {"box": box, "multi": False, **scalars}
+    The frame and walls come from ``box`` (the input's cube side or container), not from the checkpoint. Checkpoints
+    written before containers hold the cells per side as ``m``; before multi-image lists they lack ``multi``
+    (they are single-image); their fields are otherwise the same."""
+    arrays = dict(arrays)
+    if "ms" not in arrays and "m" in scalars:
+        arrays["ms"] = np.full(3, int(scalars["m"]), dtype=np.int64)
+    scalars = {"multi": False, **scalars}
+    frame = _frame_fields(box)
     fields = {}
     for name, kind in get_type_hints(ed.EventState).items():
-        if name not in ed.WORKSPACE:
+        if name in ed.WORKSPACE:
+            continue
+        if name in frame:
+            fields[name] = frame[name]
+        else:
             fields[name] = _aligned_copy(arrays[name]) if kind is np.ndarray else kind(scalars[name])
     return ed.EventState(**fields, **ed.workspace(len(fields["st"]), fields["nbr"].shape[1]))
 
 
 class LSEngine:
-    """Event-driven MD of N growing hard spheres in a periodic cube (d = 3): an
+    """Event-driven MD of N growing hard spheres in a periodic box or a container (d = 3): an
     :class:`~.kernels.event_driven.EventState` (``state``, the only mutable part) stepped by windows.
 
     Start one with :meth:`start`, or continue a saved ``state`` with ``LSEngine(state, temperature, options)``.
@@ -163,50 +189,64 @@ class LSEngine:
         self.state = self.state._replace(gamma=float(gamma))
 
     @property
+    def period(self) -> float:
+        """The shortest periodic length of the frame (inf if no axis is periodic)."""
+        s = self.state
+        return float(min((L for L, p in zip(s.lengths, s.periodic) if p), default=math.inf))
+
+    @property
+    def volume(self) -> float:
+        """The frame's volume prod L_k (the spheres' space in a periodic box or a slab)."""
+        return float(np.prod(self.state.lengths))
+
+    @property
     def rho_limit(self) -> float:
-        """The scale factor at which the largest sphere touches its own periodic image (diameter L): no sphere can
-        grow beyond it."""
-        return self.state.box / float(self.state.st[:, 7].max())
+        """The scale factor at which the largest sphere touches its own periodic image (diameter L_k along a
+        periodic axis): no sphere can grow beyond it."""
+        return self.period / float(self.state.st[:, 7].max())
 
     # --- neighbour lists ------------------------------------------------------------------------------------
 
     def rebuild_lists(self, t: float) -> None:
         """Rebuild all Verlet lists at time t (every particle must be synchronised to t)."""
         s, opt = self.state, self.options
-        n, box = self.n, s.box
+        n, frame = self.n, Frame(s.lengths, s.periodic)
         nominal = s.st[:, 7]
         rho = s.rho0 + s.gamma * t
         dmean, dmax = float(nominal.mean()), float(nominal.max())
         margin = opt.list_margin if s.gamma > 0 else 0.0
-        spacing = (box**3 / n) ** (1.0 / 3.0)
+        volume = frame.lengths[0] ** 3 if frame.is_periodic_cube else self.volume
+        spacing = (volume / n) ** (1.0 / 3.0)
         r_dilute = spacing * (3.0 * opt.dilute_neighbours / (4.0 * math.pi)) ** (1.0 / 3.0)
-        limit = 0.45 * box  # single image: every list cutoff stays below L/2
+        period = self.period
+        limit = 0.45 * period  # single image: every list cutoff stays below L_k/2 along periodic axes
         multi = opt.all_images or not rho * dmax < 0.9 * limit
         if not multi:
             rho_list = min(rho * (1.0 + margin), 0.95 * limit / dmax)
             max_skin = limit - rho_list * dmax
         else:  # pairs may meet through several images (docs/algorithms.md, "Any box, any size ratio")
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
-            max_skin = MULTI_IMAGE_MAX_SKIN * box  # images one box away suffice (ed.image_collision)
+            max_skin = MULTI_IMAGE_MAX_SKIN * period  # images one period away suffice (ed.image_collision)
         skin = min(max(opt.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
-        m = cells_per_side(box, rho_list * dmax + skin, 3, n)
-        st, perm = self._sorted_by_cell(m)
+        ms = cells_per_axis(frame, rho_list * dmax + skin, n)
+        st, perm = self._sorted_by_cell(ms)
         cap = s.nbr.shape[1]
         while True:
             nbr = _aligned_zeros((n, cap), np.int32)
-            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, box, rho_list, skin, m, nbr)
+            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, s.lengths, s.half, s.periodic,
+                                                                          rho_list, skin, ms, nbr)
             if max_count + 4 <= cap:
                 break
             cap = _round_cap(1.5 * max_count + 16)
         self.state = s._replace(st=st, perm=perm, refs=refs, nbr=nbr, nnb=nnb, head=head, nxt=nxt, prv=prv,
-                                cellof=cellof, scratch=ed.scratch_row(cap), m=m, rho_list=rho_list, skin=skin,
+                                cellof=cellof, scratch=ed.scratch_row(cap), ms=ms, rho_list=rho_list, skin=skin,
                                 multi=multi, list_rebuilds=s.list_rebuilds + 1)
 
-    def _sorted_by_cell(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+    def _sorted_by_cell(self, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(st, perm)`` renumbered in cell order, so that neighbours sit close in memory (all particles
         synchronised)."""
         s = self.state
-        order = cell_sort(np.mod(s.st[:, 0:3], s.box), s.box, m)[2]
+        order = cell_sort(np.mod(s.st[:, 0:3], s.lengths), s.lengths, ms)[2]
         if np.any(order != np.arange(self.n)):
             return _aligned_copy(s.st[order]), s.perm[order]
         return s.st, s.perm
@@ -288,7 +328,7 @@ class LSEngine:
         If ``rho_target`` is reached first, the window ends there (``reached_target``).
         """
         counters = np.zeros(ed.N_COUNTERS, dtype=np.int64)
-        acc = np.zeros(1)
+        acc = np.zeros(ed.N_ACCUMULATORS)
         rebuilds0 = self.state.list_rebuilds
         if not np.all(self.state.st[:, 6] == 0.0):
             raise SimulationError("window started with unsynchronised particles")
@@ -301,19 +341,24 @@ class LSEngine:
             # (docs/algorithms.md, "Rattlers the thermostat has slowed"). Collisions in zero time are a jammed
             # network whose gaps are below double resolution (an N = 2 crystal): p = inf.
             raise SimulationError(f"{int(counters[ed.C_EVENTS])} events took no time: the event loop is stuck")
-        pressure = 1.0 + abs(acc[0]) / (2.0 * e * t) if t > 0 else math.inf
+        pressure = 1.0 + abs(acc[ed.A_VIRIAL]) / (2.0 * e * t) if t > 0 else math.inf
         temperature = 2.0 * e / (3.0 * self.n)
         self.thermalise()
         s = self.state
         rho0 = min(s.rho0 + s.gamma * t, self.rho_limit) if self_contact else s.rho0 + s.gamma * t
         self.state = s = s._replace(rho0=rho0)
         s.st[:, 6] = 0.0
-        h = ed.min_listed_ratio(s.st, s.nbr, s.nnb, s.box, s.rho0)
+        h = ed.min_listed_ratio(s.st, s.nbr, s.nnb, s.lengths, s.half, s.rho0)
         if h < 1.0 - AUDIT_TOLERANCE:
             raise SimulationError(f"overlap {1.0 - h:.3e} (relative) after a window: an event was lost")
+        if s.has_walls:
+            h = ed.min_wall_ratio(s.st, s.lengths, s.walls, s.rho0)
+            if h < 1.0 - AUDIT_TOLERANCE:
+                raise SimulationError(f"wall penetration {1.0 - h:.3e} (relative) after a window: an event was lost")
         return WindowStats(
             duration=t, pressure=pressure, temperature=temperature, collisions=int(counters[ed.C_COLLISIONS]),
             events=int(counters[ed.C_EVENTS]), skin_events=int(counters[ed.C_SKIN]),
             moves=int(counters[ed.C_MOVES]), null_collisions=int(counters[ed.C_NULL]),
             list_rebuilds=s.list_rebuilds - rebuilds0, reached_target=reached, self_contact=self_contact,
+            wall_collisions=int(counters[ed.C_WALL]), wall_impulse=float(acc[ed.A_WALL_IMPULSE]),
         )

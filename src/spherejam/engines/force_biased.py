@@ -143,7 +143,7 @@ class FBRun(Stepper):
                  parameters: dict):
         self.input, self.rate, self.phi_nominal, self.max_iterations = packing, rate, phi_nominal, max_iterations
         self.parameters = parameters
-        self.box, self.dim = packing.box, packing.dim
+        self.box, self.dim = packing.require_cube("the force-biased (FB) engine"), packing.dim
         rel = packing.diameters / packing.mean_diameter
         self.nominal = rel * (phi_nominal * self.box**self.dim / float(np.sum(ball_volume(rel, self.dim)))) ** (
             1.0 / self.dim)

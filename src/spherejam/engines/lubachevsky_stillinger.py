@@ -42,6 +42,30 @@ def maxwell_velocities(n: int, temperature: float, rng: np.random.Generator) -> 
     return v
 
 
+def without_rotation(v: np.ndarray, positions: np.ndarray, container, temperature: float) -> np.ndarray:
+    """Velocities with no angular momentum about a cylinder's axis or a sphere's centre, rescaled to E = (3/2) N T.
+
+    Smooth curved walls push along their normals only, so that angular momentum is conserved: left in, it is a
+    rigid rotation of the whole packing that never jams (a zero mode, docs/containers.md §4)."""
+    r = positions - container.centre
+    if container.curved == "cylinder":
+        a = container.axis
+        e = np.zeros(3)
+        e[a] = 1.0
+        r = r.copy()
+        r[:, a] = 0.0
+        inertia = float(np.sum(r * r))
+        if inertia > 0:
+            omega = float(np.sum(np.cross(r, v) @ e)) / inertia
+            v = v - omega * np.cross(e, r)
+    else:
+        moment = np.sum(np.cross(r, v), axis=0)
+        inertia = float(np.sum(r * r)) * np.eye(3) - r.T @ r
+        omega = np.linalg.solve(inertia, moment)
+        v = v - np.cross(omega, r)
+    return v * math.sqrt(1.5 * len(v) * temperature / (0.5 * float(np.sum(v * v))))
+
+
 def validate_ls_options(packing, *, p_max, seed, events_per_particle, temperature, max_collisions=None) -> None:
     """The checks of the arguments that LS and MLS share (the run options are checked by :class:`RunOptions`)."""
     require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a spherejam Packing")
@@ -84,7 +108,7 @@ class WindowRun(Stepper):
         self.count_collisions_only, self.temperature = bool(count_collisions_only), float(temperature)
         self.max_collisions, self.engine_options, self.user_callback = max_collisions, engine_options, callback
         self.nominal = packing.diameters / packing.diameters.mean()
-        self.phi_nominal = float(np.sum(ball_volume(self.nominal, 3)) / packing.box**3)
+        self.phi_nominal = float(np.sum(ball_volume(self.nominal, 3)) / packing.volume)
         self.rho_target = None if target_phi is None else (target_phi / self.phi_nominal) ** (1.0 / 3.0)
         self.rng = np.random.default_rng(np.random.SeedSequence(self.seed))
         self.history = History()
@@ -97,16 +121,21 @@ class WindowRun(Stepper):
 
     # --- Stepper ---------------------------------------------------------------------------------------------
     def start(self, wall_time) -> None:
-        rho = closest_pair(self.input.positions, self.nominal, self.input.box)[2]
-        rho = min(rho, self.input.box / float(self.nominal.max()))  # nor may a sphere overlap its own image
-        velocities = maxwell_velocities(self.input.n, self.temperature, self.rng)
-        self.engine = LSEngine.start(self.input.positions, self.nominal, self.input.box, rho, velocities,
+        packing, container = self.input, self.input.container
+        rho = closest_pair(packing.positions, self.nominal, packing.frame)[2]
+        period = min((L for L, p in zip(container.lengths, container.periodic) if p), default=math.inf)
+        rho = min(rho, period / float(self.nominal.max()))  # nor may a sphere overlap its own image
+        rho = min(rho, container.max_scale(packing.positions, self.nominal))  # nor cross a wall
+        velocities = maxwell_velocities(packing.n, self.temperature, self.rng)
+        if container.curved is not None:
+            velocities = without_rotation(velocities, packing.positions, container, self.temperature)
+        self.engine = LSEngine.start(packing.positions, self.nominal, container, rho, velocities,
                                      self.controller.rate, self.temperature, **(self.engine_options or {}))
         self._phi_initial = self.phi_nominal * rho**3
 
     def load(self, arrays, attrs, history) -> None:
         saved = {k[len(_ENGINE):]: v for k, v in arrays.items() if k.startswith(_ENGINE)}
-        state = restore_state(saved, attrs["engine"], self.input.box)
+        state = restore_state(saved, attrs["engine"], self.input.container)
         self.engine = LSEngine(state, self.temperature, ListOptions(**(self.engine_options or {})))
         self.controller.restore(attrs["controller"])
         self.history = History(history)
@@ -189,7 +218,8 @@ class WindowRun(Stepper):
             "counters": stats.as_dict(),
         })
         engine = self.engine
-        result = Packing(engine.positions, engine.rho0 * engine.nominal, self.input.box, metadata)
+        result = Packing(engine.positions, engine.rho0 * engine.nominal, self.input.box, metadata,
+                         self.input.container)
         report = result.check(AUDIT_TOLERANCE)
         if not report.ok:
             raise SimulationError(f"{self.algorithm}: final audit failed, the result is discarded: {report}")

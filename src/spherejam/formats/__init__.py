@@ -104,9 +104,17 @@ def remove_round_off_overlaps(packing: Packing) -> Packing:
     return packing.replace(diameters=packing.diameters * scale, metadata=meta)
 
 
+#: The formats that can hold a container other than the periodic cube (docs/containers.md §6).
+CONTAINER_FORMATS = ("xyz", "lammps")
+
+
 def write(packing: Packing, path: str | os.PathLike, fmt: str) -> list[Path]:
-    """Write ``packing`` in format ``fmt``; returns the files written."""
+    """Write ``packing`` in format ``fmt``; returns the files written. A container the format cannot represent is
+    refused in one line."""
     module = _module(fmt)
+    if not packing.container.is_periodic_cube and fmt not in CONTAINER_FORMATS:
+        raise InputError(f"format={fmt!r}: holds only a periodic cube, not container {packing.container.spec} "
+                         f"(formats with containers: {', '.join(CONTAINER_FORMATS)})")
     out = module.export_xyz(packing, path) if fmt == "xyz" else module.write(packing, path)
     return out if isinstance(out, list) else [out]
 

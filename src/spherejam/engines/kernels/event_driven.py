@@ -1,4 +1,5 @@
-"""Event-driven machinery for hard spheres with linearly growing diameters in a periodic cube (d = 3).
+"""Event-driven machinery for hard spheres with linearly growing diameters in a periodic box or a container with
+walls (d = 3; core/container, docs/containers.md).
 
 This is the inner engine of the Lubachevsky–Stillinger protocol: the windows (pressure, thermostat, audit) live in
 :mod:`spherejam.engines.event_driven`, the run (stopping, checkpoints) in
@@ -13,7 +14,9 @@ State (one :class:`EventState`; particles as a structure of arrays, one cache li
 Events (Lubachevsky 1991: one scheduled event per particle, kept in an indexed 4-ary min-heap)
     ``MOVE``      re-predict only (an invalidated prediction, or the initial state),
     ``COLLISION`` with ``ev_partner[i]``; the partner always holds the mirror event (same time, partner i),
-    ``SKIN``      the particle leaves its Verlet skin sphere: its neighbour list is rebuilt locally.
+    ``SKIN``      the particle leaves its Verlet skin sphere: its neighbour list is rebuilt locally,
+    ``WALL``      with wall ``ev_partner[i]`` (2k, 2k + 1: the planes x_k = 0 and x_k = L_k; :data:`CURVED_WALL`: the
+                  cylinder or sphere), reflected in the frame of the growing surface.
     A collision with j is accepted only if it is not later than j's own event ("availability"); when j's previous
     partner k loses j, k's event is demoted to a MOVE at the same time.
 
@@ -27,6 +30,12 @@ Neighbour lists (exact at every density)
     minimum image. A pair is listed once, by its minimum image; in a box smaller than two list cutoffs (``multi``:
     small N, or a sphere wider than ~L/2.5) the prediction also tries the images one box length away, and a
     collision is resolved on the image that was predicted (docs/algorithms.md, "Any box, any size ratio").
+
+Frame and walls
+    The box is the frame [0, L_0) x [0, L_1) x [0, L_2) of a container: differences fold (one fold, ``half`` = L_k/2)
+    along periodic axes only; along a walled axis ``half`` is +inf, so nothing folds there, and the cell stencils end
+    at the walls. Wall events are predicted beside the pair events of a particle, behind one loop-invariant test, so
+    the periodic path runs the same operations as before walls existed.
 
 Speed (the hot loop is a prediction over ~10 neighbours)
     Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
@@ -72,20 +81,24 @@ class EventState(NamedTuple):
     hpos: np.ndarray  #: (N,) int32 heap position of each particle
     hkey: np.ndarray  #: (N,) event times in heap order
     scratch: np.ndarray  #: (1, >= cap) int32 work row of a local list update
-    box: float  #: side L of the periodic cube
-    m: int  #: cells per side
+    lengths: np.ndarray  #: (3,) edges L_k of the frame (the side L thrice for the periodic cube)
+    half: np.ndarray  #: (3,) L_k / 2 along periodic axes, +inf along walled ones (nothing folds there)
+    periodic: np.ndarray  #: (3,) bool
+    walls: np.ndarray  #: (9,) the container's walls (core.container.Container.wall_array)
+    ms: np.ndarray  #: (3,) int64 cells per axis
     rho0: float  #: diameter scale factor at t = 0 of the current window
     gamma: float  #: compression rate d rho / dt
     rho_list: float  #: scale factor up to which the lists are exact
     skin: float  #: Verlet skin
     multi: bool  #: pairs may meet through several periodic images
+    has_walls: bool  #: the container has walls (wall events are predicted)
     list_rebuilds: int  #: full rebuilds so far
 
     def persistent(self) -> tuple[dict[str, np.ndarray], dict[str, float | int | bool]]:
-        """``(arrays, scalars)``: every field but the :data:`WORKSPACE`, for a checkpoint."""
+        """``(arrays, scalars)``: every field but the :data:`WORKSPACE` and the :data:`FRAME`, for a checkpoint."""
         arrays, scalars = {}, {}
         for name, value in self._asdict().items():
-            if name not in WORKSPACE:
+            if name not in WORKSPACE and name not in FRAME:
                 (arrays if isinstance(value, np.ndarray) else scalars)[name] = value
         return arrays, scalars
 
@@ -93,6 +106,11 @@ class EventState(NamedTuple):
 #: Fields whose contents are dead between windows: a window predicts every event afresh (:func:`init_events`) and
 #: the scratch row holds nothing across calls. A restored state gets them from :func:`workspace`.
 WORKSPACE = ("ev_time", "ev_type", "ev_partner", "heap", "hpos", "hkey", "scratch")
+
+
+#: Fields that the input's container fixes (its frame and walls): a checkpoint does not hold them, a restored state
+#: gets them from the input.
+FRAME = ("lengths", "half", "periodic", "walls", "has_walls")
 
 
 def workspace(n: int, cap: int) -> dict[str, np.ndarray]:
@@ -109,6 +127,9 @@ def scratch_row(cap: int) -> np.ndarray:
 MOVE = 0
 COLLISION = 1
 SKIN = 2
+WALL = 3
+#: ``ev_partner`` of a WALL event with the curved wall (a cylinder or a sphere); the planes are 0 .. 5.
+CURVED_WALL = 6
 
 #: Kernel return codes.
 WINDOW_DONE = 0  #: the requested number of events (or collisions) was processed
@@ -120,8 +141,12 @@ INCONSISTENT = 3  #: an event time went backwards or became NaN
 # minimum of _sift_down.
 
 #: Indices into the integer counter array of a window.
-C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL = 0, 1, 2, 3, 4
-N_COUNTERS = 5
+C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL, C_WALL = 0, 1, 2, 3, 4, 5
+N_COUNTERS = 6
+#: Indices into the float accumulator array of a window: the virial sum_c |lever| * impulse (pairs and walls) and
+#: the total impulse given to the walls (growth term excluded in both).
+A_VIRIAL, A_WALL_IMPULSE = 0, 1
+N_ACCUMULATORS = 2
 
 _INF = np.inf
 _SLOW = 1e-200  # |v|^2 below which the skin-exit root is solved in units of |v| (a * c would underflow)
@@ -298,22 +323,26 @@ MINIMUM_IMAGE = 13
 
 
 @njit(cache=True, inline="always")
-def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, box, reach, skip):
-    """``(tau, code)``: :func:`collision_delay` minimised over the periodic images r + (a, b, c) L, a, b, c in
-    -1..1, of a pair whose minimum image is r, taking only images within ``reach`` along every axis and not image
-    ``skip`` (the image that has just collided; -1: none). For boxes smaller than two list cutoffs."""
+def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, lengths, periodic, reach, skip):
+    """``(tau, code)``: :func:`collision_delay` minimised over the periodic images r + (a L_0, b L_1, c L_2), a, b, c
+    in -1..1 (0 along a walled axis), of a pair whose minimum image is r, taking only images within ``reach`` along
+    every axis and not image ``skip`` (the image that has just collided; -1: none). For boxes smaller than two list
+    cutoffs."""
     best = _INF
     best_code = MINIMUM_IMAGE
-    for a in range(-1, 2):
-        x = rx + a * box
+    px = 1 if periodic[0] else 0
+    py = 1 if periodic[1] else 0
+    pz = 1 if periodic[2] else 0
+    for a in range(-px, px + 1):
+        x = rx + a * lengths[0]
         if abs(x) >= reach:
             continue
-        for b in range(-1, 2):
-            y = ry + b * box
+        for b in range(-py, py + 1):
+            y = ry + b * lengths[1]
             if abs(y) >= reach:
                 continue
-            for c in range(-1, 2):
-                z = rz + c * box
+            for c in range(-pz, pz + 1):
+                z = rz + c * lengths[2]
                 code = (a + 1) + 3 * (b + 1) + 9 * (c + 1)
                 if abs(z) >= reach or code == skip:
                     continue
@@ -322,6 +351,140 @@ def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, box, reach, skip):
                     best = tau
                     best_code = code
     return best, best_code
+
+
+# --- wall kinematics (docs/containers.md §2) ----------------------------------------------------------------------
+
+
+@njit(cache=True, inline="always")
+def plane_delay(gap, rate):
+    """Time until a sphere's gap to a flat wall, ``gap`` = distance of the centre minus the radius, closes at the rate
+    ``rate`` = d gap/dt (the centre's speed away from the wall minus the radius' growth), or inf. A touching (or,
+    by round-off, penetrating) sphere collides at once iff it approaches."""
+    if rate >= 0.0:
+        return _INF
+    if gap <= 0.0:
+        return 0.0
+    return gap / -rate
+
+
+@njit(cache=True, inline="always")
+def concave_delay(px, py, pz, wx, wy, wz, reach, a):
+    """Time until a sphere whose centre is at offset p from the axis (cylinder) or the centre (sphere) of a concave
+    wall, moving at w, touches it: |p + w tau| = reach - a tau, with ``reach`` = R - r the room of the centre and
+    ``a`` = dr/dt the growth of the radius; inf if never.
+
+    F(tau) = (reach - a tau)^2 - |p + w tau|^2 = A tau^2 + 2 B tau + C, A = a^2 - |w|^2, B = -a reach - p.w,
+    C = reach^2 - |p|^2 > 0 inside. Its smallest positive root is the contact (F = g (reach - a tau + |p + w tau|)
+    with g the gap, and the second factor is positive until reach - a tau = 0, where g <= 0), taken in the
+    cancellation-free form. A touching sphere collides at once iff it approaches in the frame of its growing
+    surface (p^.w + a > 0); one that leaves the wall inwards meets it again across the container (the root
+    -2B/A of F with C = 0), unlike a pair, whose gap never closes again once it opens."""
+    p2 = px * px + py * py + pz * pz
+    c = reach * reach - p2
+    pw = px * wx + py * wy + pz * wz
+    aa = a * a - (wx * wx + wy * wy + wz * wz)
+    b = -a * reach - pw
+    if c <= 0.0:
+        if pw + a * np.sqrt(p2) > 0.0:
+            return 0.0
+        if aa < 0.0 and b > 0.0:
+            return 2.0 * b / -aa
+        return _INF
+    disc = b * b - aa * c
+    if disc < 0.0:  # only a > |w| can make it negative, and then a root exists: round-off
+        disc = 0.0
+    if b < 0.0:
+        return c / (np.sqrt(disc) - b)
+    if aa < 0.0:
+        return (b + np.sqrt(disc)) / (-aa)
+    return _INF
+
+
+@njit(cache=True, inline="always")
+def wall_event(xi, yi, zi, vxi, vyi, vzi, r, a, lengths, walls):
+    """``(tau, wall)``: the first wall particle i meets (centre x, velocity v, radius r growing at a), or (inf, -1).
+    ``walls`` is :meth:`~spherejam.core.container.Container.wall_array`."""
+    best = _INF
+    wall = -1
+    if walls[0] != 0.0:
+        tau = plane_delay(xi - r, vxi - a)
+        if tau < best:
+            best, wall = tau, 0
+        tau = plane_delay(lengths[0] - xi - r, -vxi - a)
+        if tau < best:
+            best, wall = tau, 1
+    if walls[1] != 0.0:
+        tau = plane_delay(yi - r, vyi - a)
+        if tau < best:
+            best, wall = tau, 2
+        tau = plane_delay(lengths[1] - yi - r, -vyi - a)
+        if tau < best:
+            best, wall = tau, 3
+    if walls[2] != 0.0:
+        tau = plane_delay(zi - r, vzi - a)
+        if tau < best:
+            best, wall = tau, 4
+        tau = plane_delay(lengths[2] - zi - r, -vzi - a)
+        if tau < best:
+            best, wall = tau, 5
+    kind = walls[3]
+    if kind != 0.0:
+        px = xi - walls[5]
+        py = yi - walls[6]
+        pz = zi - walls[7]
+        wx, wy, wz = vxi, vyi, vzi
+        if kind == 1.0:  # a cylinder: only the components across its axis count
+            axis = walls[4]
+            if axis == 0.0:
+                px, wx = 0.0, 0.0
+            elif axis == 1.0:
+                py, wy = 0.0, 0.0
+            else:
+                pz, wz = 0.0, 0.0
+        tau = concave_delay(px, py, pz, wx, wy, wz, walls[8] - r, a)
+        if tau < best:
+            best, wall = tau, CURVED_WALL
+    return best, wall
+
+
+@njit(cache=True, inline="always")
+def wall_normal(st, i, wall, lengths, walls, n):
+    """The outward unit normal of ``wall`` at particle i's contact with it, into ``n`` (3,)."""
+    n[0] = 0.0
+    n[1] = 0.0
+    n[2] = 0.0
+    if wall < CURVED_WALL:
+        n[wall // 2] = -1.0 if wall % 2 == 0 else 1.0
+        return
+    for k in range(3):
+        n[k] = st[i, k] - walls[5 + k]
+    if walls[3] == 1.0:
+        n[int(walls[4])] = 0.0
+    norm = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    for k in range(3):
+        n[k] /= norm
+
+
+@njit(cache=True)
+def min_wall_ratio(st, lengths, walls, rho):
+    """min over spheres of (distance of the centre to its nearest wall) / radius (synchronised state; inf without
+    walls): < 1 means a sphere penetrates a wall."""
+    best = _INF
+    for i in range(st.shape[0]):
+        r = 0.5 * rho * st[i, 7]
+        d = _INF
+        for k in range(3):
+            if walls[k] != 0.0:
+                d = min(d, st[i, k], lengths[k] - st[i, k])
+        if walls[3] != 0.0:
+            p2 = 0.0
+            for k in range(3):
+                if not (walls[3] == 1.0 and k == int(walls[4])):
+                    p2 += (st[i, k] - walls[5 + k]) ** 2
+            d = min(d, walls[8] - np.sqrt(p2))
+        best = min(best, d / r)
+    return best
 
 
 @njit(cache=True)
@@ -360,23 +523,28 @@ def _wrap(x, box):
 
 
 @njit(cache=True, inline="always")
-def _stencil_of(coords, box, m, cells, shift):
-    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells``; returns their number.
+def _stencil_of(coords, lengths, periodic, ms, cells, shift):
+    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells`` (those beyond a wall left out);
+    returns their number.
 
     Gathered once per cell, not per sphere: a full rebuild visits the spheres in cell order.
     """
-    count = stencil_size(1, m, 3)
-    for o in range(count):
-        cells[o] = stencil_cell(coords, o, 1, m, box, shift)  # shift unused: differences are folded
+    count = 0
+    for o in range(stencil_size(1, ms)):
+        c = stencil_cell(coords, o, 1, ms, lengths, periodic, shift)  # shift unused: differences are folded
+        if c >= 0:
+            cells[count] = c
+            count += 1
     return count
 
 
 @njit(cache=True, inline="always")
-def _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, out, row):
+def _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head, nxt, cells, ncells, out, row):
     """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin in the cells ``cells[:ncells]`` (the
     stencil of the point's cell) to ``out[row, :]``; returns the count (entries beyond the row's capacity are
     counted, not written)."""
-    half = 0.5 * box
+    lx, ly, lz = lengths[0], lengths[1], lengths[2]
+    hx, hy, hz = half[0], half[1], half[2]
     cap = out.shape[1]
     di = st[i, 7]
     count = 0
@@ -384,9 +552,9 @@ def _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cel
         j = head[cells[o]]
         while j >= 0:
             if j != i:
-                dx = fold(refs[j, 0] - x, box, half)
-                dy = fold(refs[j, 1] - y, box, half)
-                dz = fold(refs[j, 2] - z, box, half)
+                dx = fold(refs[j, 0] - x, lx, hx)
+                dy = fold(refs[j, 1] - y, ly, hy)
+                dz = fold(refs[j, 2] - z, lz, hz)
                 cut = rho_list * 0.5 * (di + st[j, 7]) + skin
                 if dx * dx + dy * dy + dz * dz < cut * cut:
                     if count < cap:
@@ -397,20 +565,20 @@ def _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cel
 
 
 @njit(cache=True)
-def build_lists(st, box, rho_list, skin, m, nbr):
+def build_lists(st, lengths, half, periodic, rho_list, skin, ms, nbr):
     """All neighbour lists from scratch into ``nbr`` (N x cap); every particle must be synchronised.
 
-    Wraps positions into [0, L), sets the reference centres to them and links the cells. Returns
-    ``(refs, nnb, head, nxt, prv, cellof, max_count)``; if ``max_count > cap`` the lists are incomplete and the
-    caller must call again with a larger ``nbr``.
+    Wraps positions into [0, L_k) (a no-op along walled axes, where they stay inside), sets the reference centres
+    to them and links the cells. Returns ``(refs, nnb, head, nxt, prv, cellof, max_count)``; if
+    ``max_count > cap`` the lists are incomplete and the caller must call again with a larger ``nbr``.
     """
     n = st.shape[0]
     refs = np.empty((n, 3))
     for i in range(n):
         for k in range(3):
-            st[i, k] = _wrap(st[i, k], box)
+            st[i, k] = _wrap(st[i, k], lengths[k])
             refs[i, k] = st[i, k]
-    head, nxt, prv, cellof = link_cells(refs, box, m)
+    head, nxt, prv, cellof = link_cells(refs, lengths, ms)
     nnb = np.zeros(n, dtype=np.int32)
     cap = nbr.shape[1]
     max_count = 0
@@ -422,10 +590,10 @@ def build_lists(st, box, rho_list, skin, m, nbr):
     for i in range(n):
         if cellof[i] != last:
             last = cellof[i]
-            unravel_cell(last, m, coords)
-            ncells = _stencil_of(coords, box, m, cells, shift)
-        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], box, rho_list, skin, head, nxt,
-                                   cells, ncells, nbr, i)
+            unravel_cell(last, ms, coords)
+            ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
+        count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], lengths, half, rho_list, skin,
+                                   head, nxt, cells, ncells, nbr, i)
         nnb[i] = min(count, cap)
         max_count = max(max_count, count)
     return refs, nnb, head, nxt, prv, cellof, max_count
@@ -443,21 +611,22 @@ def _remove_from_list(nbr, nnb, j, i):
 
 
 @njit(cache=True)
-def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift,
-                 cells):
+def _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv, cellof,
+                 scratch, coords, shift, cells):
     """Local Verlet update of particle i (synchronised): new reference centre = its wrapped position.
 
     Returns False (and changes nothing) if a list would overflow.
     """
     cap = nbr.shape[1]
-    x = _wrap(st[i, 0], box)
-    y = _wrap(st[i, 1], box)
-    z = _wrap(st[i, 2], box)
-    coords[0] = axis_cell(x, box, m)
-    coords[1] = axis_cell(y, box, m)
-    coords[2] = axis_cell(z, box, m)
-    ncells = _stencil_of(coords, box, m, cells, shift)
-    count = _gather_cell_block(st, refs, i, x, y, z, box, rho_list, skin, head, nxt, cells, ncells, scratch, 0)
+    x = _wrap(st[i, 0], lengths[0])
+    y = _wrap(st[i, 1], lengths[1])
+    z = _wrap(st[i, 2], lengths[2])
+    coords[0] = axis_cell(x, lengths[0], ms[0])
+    coords[1] = axis_cell(y, lengths[1], ms[1])
+    coords[2] = axis_cell(z, lengths[2], ms[2])
+    ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
+    count = _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head, nxt, cells, ncells,
+                               scratch, 0)
     if count > cap or count > scratch.shape[1]:
         return False
     for k in range(count):
@@ -473,7 +642,7 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
     refs[i, 0] = x
     refs[i, 1] = y
     refs[i, 2] = z
-    move_to_cell(i, cell_of(refs[i], box, m), head, nxt, prv, cellof)
+    move_to_cell(i, cell_of(refs[i], lengths, ms), head, nxt, prv, cellof)
     for k in range(count):
         j = scratch[0, k]
         nbr[i, k] = j
@@ -488,21 +657,20 @@ def _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, 
 
 @njit(cache=True, inline="always")
 def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best, best_type, best_j, st,
-                    ev_time, nbr, nnb, box, gamma, skin, rho_list):
+                    ev_time, nbr, nnb, lengths, half, periodic, gamma, skin, rho_list):
     """The neighbour loop of :func:`_predict` when pairs may meet through several images: each listed pair's images
     within reach (a collision before the next list event starts within rho_list D_ij + 2 skin, both spheres staying
     within skin/2 of their reference centres); ``exclude`` loses only its image ``exclude_image``."""
-    half = 0.5 * box
     di = st[i, 7]
     for kk in range(nnb[i]):
         j = nbr[i, kk]
         dtj = t - st[j, 6]
-        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
-        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
-        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lengths[0], half[0])
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, lengths[1], half[1])
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lengths[2], half[2])
         sig = 0.5 * (di + st[j, 7])
-        tau, _ = image_collision(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi, sig, rho, gamma, box,
-                                 rho_list * sig + 2.0 * skin, exclude_image if j == exclude else -1)
+        tau, _ = image_collision(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi, sig, rho, gamma,
+                                 lengths, periodic, rho_list * sig + 2.0 * skin, exclude_image if j == exclude else -1)
         tc = t + tau
         if tc < best and tc <= ev_time[j]:
             best = tc
@@ -512,8 +680,8 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
 
 
 @njit(cache=True, inline="always")
-def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb, box,
-             rho0, gamma, skin, rho_list, multi, update_heap):
+def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb,
+             lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap):
     """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
     are :class:`EventState`'s fields.
 
@@ -525,7 +693,8 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     event loop (docs/algorithms.md §7.3).
     """
     n = st.shape[0]
-    half = 0.5 * box
+    lx, ly, lz = lengths[0], lengths[1], lengths[2]
+    hx, hy, hz = half[0], half[1], half[2]
     # release: a partner that expected to collide with i falls back to a re-prediction at the same time
     if ev_type[i] == COLLISION:
         k = ev_partner[i]
@@ -546,10 +715,16 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     best_j = -1
     for kk in range(nnb[i]):
         _prefetch_row(st, nbr[i, kk])
+    if has_walls:  # before the pairs: an early wall event prunes them
+        tw, wall = wall_event(xi, yi, zi, vxi, vyi, vzi, 0.5 * rho * di, 0.5 * gamma * di, lengths, walls)
+        if t + tw < best:
+            best = t + tw
+            best_type = WALL
+            best_j = wall
     if multi:  # outside the loop: the single-image loop below stays as tight as it was
         best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
-                                                  best_type, best_j, st, ev_time, nbr, nnb, box, gamma, skin,
-                                                  rho_list)
+                                                  best_type, best_j, st, ev_time, nbr, nnb, lengths, half, periodic,
+                                                  gamma, skin, rho_list)
     for kk in range(0 if multi else nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -558,9 +733,9 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
         ux = st[j, 3] - vxi
         uy = st[j, 4] - vyi
         uz = st[j, 5] - vzi
-        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, box, half)
-        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, box, half)
-        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, box, half)
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
         sig = 0.5 * (di + st[j, 7])
         s2 = sig * sig
         b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
@@ -602,7 +777,8 @@ def init_events(s, t):
     """Predict every particle's event in state ``s`` from scratch (all synchronised at t) and build the heap."""
     st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
     ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
-    box, rho0, gamma, skin, rho_list, multi = s.box, s.rho0, s.gamma, s.skin, s.rho_list, s.multi
+    lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
+    rho0, gamma, skin, rho_list, multi = s.rho0, s.gamma, s.skin, s.rho_list, s.multi
     n = st.shape[0]
     for i in range(n):
         ev_time[i] = t
@@ -610,7 +786,7 @@ def init_events(s, t):
         ev_partner[i] = -1
     for i in range(n):
         _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                 nbr, nnb, box, rho0, gamma, skin, rho_list, multi, False)
+                 nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
@@ -619,18 +795,22 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     """Process the events of state ``s`` from time t until ``target`` events (or collisions) are counted in
     ``counters``.
 
-    ``acc[0]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth excluded).
-    Returns ``(status, t)``. On ``WINDOW_DONE`` and ``HORIZON`` every particle is synchronised to the returned t.
+    ``acc[A_VIRIAL]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth
+    excluded) and, for a wall collision, r_i times the impulse 2 v_n the wall gives (v_n the centre's speed towards
+    it); ``acc[A_WALL_IMPULSE]`` the walls' impulses alone. Returns ``(status, t)``. On ``WINDOW_DONE`` and
+    ``HORIZON`` every particle is synchronised to the returned t.
     """
     # every field unpacked once, outside the loop (see _predict)
     st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
     ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
-    scratch, box, m, rho0, gamma, rho_list, skin, multi = s.scratch, s.box, s.m, s.rho0, s.gamma, s.rho_list, \
-        s.skin, s.multi
-    half = 0.5 * box
+    scratch, ms, rho0, gamma, rho_list, skin, multi = s.scratch, s.ms, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
+    lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
+    lx, ly, lz = lengths[0], lengths[1], lengths[2]
+    hx, hy, hz = half[0], half[1], half[2]
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
     cells = np.empty(27, dtype=np.int64)
+    normal = np.empty(3)
     while True:
         i = heap[0]
         te = hkey[0]
@@ -642,12 +822,12 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
         kind = ev_type[i]
         if kind == SKIN:
             _sync(st, i, te)
-            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
-                                coords, shift, cells):
+            if not _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv,
+                                cellof, scratch, coords, shift, cells):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -656,19 +836,20 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 _prefetch_row(st, nbr[j, kk])
             _sync(st, i, t)
             _sync(st, j, t)
-            rx = fold(st[j, 0] - st[i, 0], box, half)
-            ry = fold(st[j, 1] - st[i, 1], box, half)
-            rz = fold(st[j, 2] - st[i, 2], box, half)
+            rx = fold(st[j, 0] - st[i, 0], lx, hx)
+            ry = fold(st[j, 1] - st[i, 1], ly, hy)
+            rz = fold(st[j, 2] - st[i, 2], lz, hz)
             image = MINIMUM_IMAGE
             if multi:
                 # the image that collides now (delay ~0); near jamming several images touch to round-off, so the
                 # minimum image may be another one
                 sig = 0.5 * (st[i, 7] + st[j, 7])
                 _, image = image_collision(rx, ry, rz, st[j, 3] - st[i, 3], st[j, 4] - st[i, 4], st[j, 5] - st[i, 5],
-                                           sig, rho0 + gamma * t, gamma, box, 2.0 * sig * (rho0 + gamma * t), -1)
-                rx += (image % 3 - 1) * box
-                ry += (image // 3 % 3 - 1) * box
-                rz += (image // 9 - 1) * box
+                                           sig, rho0 + gamma * t, gamma, lengths, periodic,
+                                           2.0 * sig * (rho0 + gamma * t), -1)
+                rx += (image % 3 - 1) * lx
+                ry += (image // 3 % 3 - 1) * ly
+                rz += (image // 9 - 1) * lz
             r = np.sqrt(rx * rx + ry * ry + rz * rz)
             nx = rx / r
             ny = ry / r
@@ -686,18 +867,35 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 st[j, 3] -= dv * nx
                 st[j, 4] -= dv * ny
                 st[j, 5] -= dv * nz
-                acc[0] += (vin - vjn) * r
+                acc[A_VIRIAL] += (vin - vjn) * r
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
             _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+        elif kind == WALL:
+            t = te
+            _sync(st, i, t)
+            wall_normal(st, i, ev_partner[i], lengths, walls, normal)
+            vn = st[i, 3] * normal[0] + st[i, 4] * normal[1] + st[i, 5] * normal[2]  # the centre, towards the wall
+            u = vn + 0.5 * gamma * st[i, 7]  # the surface, towards the wall
+            if u > 0.0:
+                # elastic reflection in the frame of the growing surface: u' = -u
+                for k in range(3):
+                    st[i, 3 + k] -= 2.0 * u * normal[k]
+                acc[A_VIRIAL] += 2.0 * vn * 0.5 * (rho0 + gamma * t) * st[i, 7]
+                acc[A_WALL_IMPULSE] += 2.0 * vn
+                counters[C_WALL] += 1
+            else:
+                counters[C_NULL] += 1
+            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
+                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
         else:
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
@@ -708,19 +906,18 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
 
 
 @njit(cache=True)
-def min_listed_ratio(st, nbr, nnb, box, rho):
+def min_listed_ratio(st, nbr, nnb, lengths, half, rho):
     """min over listed pairs of |r_ij| / (rho D_ij) (synchronised state): < 1 means an overlap."""
     n = st.shape[0]
-    half = 0.5 * box
     best = _INF
     for i in range(n):
         for k in range(nnb[i]):
             j = nbr[i, k]
             if j <= i:
                 continue
-            rx = fold(st[j, 0] - st[i, 0], box, half)
-            ry = fold(st[j, 1] - st[i, 1], box, half)
-            rz = fold(st[j, 2] - st[i, 2], box, half)
+            rx = fold(st[j, 0] - st[i, 0], lengths[0], half[0])
+            ry = fold(st[j, 1] - st[i, 1], lengths[1], half[1])
+            rz = fold(st[j, 2] - st[i, 2], lengths[2], half[2])
             h = np.sqrt(rx * rx + ry * ry + rz * rz) / (rho * 0.5 * (st[i, 7] + st[j, 7]))
             best = min(best, h)
     return best

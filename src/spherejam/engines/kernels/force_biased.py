@@ -50,7 +50,10 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
     """
     n, dim = positions.shape
     side = box / m
-    cell, start, order = cell_sort(positions, box, m)
+    lengths = np.full(dim, box)  # the periodic cube as a frame (core.neighbours)
+    ms = np.full(dim, m, dtype=np.int64)
+    periodic = np.ones(dim, dtype=np.bool_)
+    cell, start, order = cell_sort(positions, lengths, ms)
     ps = np.empty((n, dim))  # positions and diameters in cell order, for locality
     ds = np.empty(n)
     stencil = np.empty(n, dtype=np.int64)  # half-width of each sphere's stencil, in cells
@@ -67,9 +70,9 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
     # spheres with a one-cell stencil, cell pair by cell pair
     if m >= 3:
         for c in range(m**dim):
-            unravel_cell(c, m, coords)
-            for o in range(stencil_size(1, m, dim)):
-                cn = stencil_cell(coords, o, 1, m, box, shift)
+            unravel_cell(c, ms, coords)
+            for o in range(stencil_size(1, ms)):
+                cn = stencil_cell(coords, o, 1, ms, lengths, periodic, shift)
                 for a in range(start[c], start[c + 1]):
                     if stencil[a] == 1 and not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a],
                                                           shift, False, box, rho_out, skin, pairs, count):
@@ -80,9 +83,9 @@ def build_verlet(positions, diameters, box, rho_out, skin, m, capacity):
         if w == 1 and m >= 3:
             continue
         wrap = 2 * w + 1 > m  # the whole grid, unshifted: fold each difference
-        unravel_cell(cell[order[a]], m, coords)
-        for o in range(stencil_size(w, m, dim)):
-            cn = stencil_cell(coords, o, w, m, box, shift)
+        unravel_cell(cell[order[a]], ms, coords)
+        for o in range(stencil_size(w, ms)):
+            cn = stencil_cell(coords, o, w, ms, lengths, periodic, shift)
             if not _scan_cell(ps, ds, order, start[cn], start[cn + 1], a, order[a], shift, wrap, box, rho_out,
                               skin, pairs, count):
                 return failed
@@ -150,8 +153,10 @@ def _image_forces(i, j, dd, dij, rho2, box, dx, forces):
     lo = np.empty(dim, dtype=np.int64)
     span = np.empty(dim, dtype=np.int64)
     e = np.empty(dim)
-    for code in range(image_span(dx, np.sqrt(rho2) * dij, box, lo, span)):
-        r2, zero = image_vector(code, dx, box, lo, span, e)
+    lengths = np.full(dim, box)
+    periodic = np.ones(dim, dtype=np.bool_)
+    for code in range(image_span(dx, np.sqrt(rho2) * dij, lengths, periodic, lo, span)):
+        r2, zero = image_vector(code, dx, lengths, lo, span, e)
         h2 = r2 / (dij * dij)
         if zero or not h2 < rho2:
             continue
