@@ -187,6 +187,13 @@ def test_pairs_within_small_and_large_boxes_polydisperse(rng, box, m_expected, s
     np.testing.assert_allclose(cr, br[order], rtol=1e-14)
 
 
+def _one_level(m, nominal):
+    """The grid fields of the event-driven state for one level of ``m`` cells per axis."""
+    ms = np.broadcast_to(np.asarray(m, dtype=np.int64), (3,)).copy()
+    return (ms[None, :], np.array([0, int(np.prod(ms))], dtype=np.int64), np.array([float(nominal.max())]),
+            np.zeros(len(nominal), dtype=np.int32))
+
+
 def _brute_force_lists(refs, nominal, box, rho_list, skin):
     d = refs[None, :, :] - refs[:, None, :]
     d -= box * np.floor(d / box + 0.5)
@@ -209,9 +216,10 @@ def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m
     m = neighbours.cells_per_side(box, rho_list * st[:, 7].max() + skin, 3, n)
     assert m == m_expected
     frame = neighbours.Frame.of(box, 3)
-    L, half, periodic, ms = frame.lengths, frame.half, frame.periodic, np.full(3, m, dtype=np.int64)
+    L, half, periodic = frame.lengths, frame.half, frame.periodic
+    grid = _one_level(m, st[:, 7])
     nbr = np.zeros((n, 64), dtype=np.int32)
-    refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, L, half, periodic, rho_list, skin, ms, nbr)
+    refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, L, half, periodic, rho_list, skin, *grid, nbr)
     assert max_count <= nbr.shape[1]
     want = _brute_force_lists(refs, st[:, 7], box, rho_list, skin)
     assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == want
@@ -219,8 +227,8 @@ def test_event_driven_lists_match_brute_force_after_local_updates(rng, box, n, m
     for _ in range(300):  # a particle leaves its skin sphere (possibly through a face of the box): local update
         i = int(rng.integers(n))
         st[i, 0:3] += rng.normal(0.0, 0.3, 3)
-        assert ed._rebuild_one(st, refs, i, L, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv, cellof,
-                               scratch,
+        assert ed._rebuild_one(st, refs, i, L, half, periodic, *grid, rho_list, skin, nbr, nnb, head, nxt, prv,
+                               cellof, scratch,
                                np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64))
     assert np.all((refs >= 0.0) & (refs < box))
     assert np.array_equal(cellof, _reference_cells(refs, box, m)[1])
@@ -261,7 +269,8 @@ def test_pair_search_and_event_lists_in_any_frame_match_brute_force(rng, lengths
     st[:, 7] = dia
     ms = neighbours.cells_per_axis(frame, rho_list * dia.max() + skin, n)
     nbr = np.zeros((n, 128), dtype=np.int32)
-    refs, nnb, *_ = ed.build_lists(st, frame.lengths, frame.half, frame.periodic, rho_list, skin, ms, nbr)
+    refs, nnb, *_ = ed.build_lists(st, frame.lengths, frame.half, frame.periodic, rho_list, skin,
+                                   *_one_level(ms, dia), nbr)
     cut = rho_list * 0.5 * (dia[:, None] + dia[None, :]) + skin
     listed = (r < cut) & ~np.eye(n, dtype=bool)
     assert [set(nbr[i, :nnb[i]].tolist()) for i in range(n)] == [set(np.flatnonzero(row)) for row in listed]
@@ -276,3 +285,69 @@ def test_a_walled_stencil_stops_at_the_wall():
     cells = [neighbours.stencil_cell(corner, o, 1, ms, L, periodic, shift) for o in range(27)]
     assert cells.count(-1) == 9  # the layer below z = 0 is beyond the wall; x and y still wrap
     assert len({c for c in cells if c >= 0}) == 18
+
+
+def _levelled_state(nominal, box, rng, all_images=False):
+    from spherejam.engines.event_driven import LSEngine
+
+    n = len(nominal)
+    pos = rng.random((n, 3)) * box
+    rho = neighbours.closest_pair(pos, nominal, box)[2]
+    v = rng.normal(0.0, 0.4, (n, 3))
+    return LSEngine.start(pos, nominal, box, 0.999 * rho, v, 0.0, all_images=all_images)
+
+
+@pytest.mark.parametrize("kind, n, box", [
+    ("bi10", 3000, 22.0), ("lognormal0.5", 3000, 13.0),
+    ("bi10", 300, 11.0),  # a large sphere wider than half the box: its pairs meet through several images
+])
+def test_levelled_grid_lists_match_brute_force_at_wide_size_ratios(rng, kind, n, box):
+    """A size ratio of 10 (bidisperse) and a log-normal of sigma = 0.5 get a grid of several levels; the Verlet lists
+    built through it, and after local updates (skin events) through it, are exactly the brute-force lists."""
+    from spherejam.engines.event_driven import LEVEL_RATIO
+    from spherejam.engines.kernels import event_driven as ed
+
+    if kind == "bi10":
+        nominal = np.ones(n)
+        nominal[: max(1, n // 430)] = 10.0
+    else:
+        nominal = rng.lognormal(0.0, 0.47, n)
+    nominal /= nominal.mean()
+    assert nominal.max() >= LEVEL_RATIO * np.median(nominal)
+    engine = _levelled_state(nominal, box, rng)
+    s = engine.state
+    assert s.lvl_ms.shape[0] >= 2  # the test runs the levelled path
+
+    def check(s):
+        d = s.refs[None, :, :] - s.refs[:, None, :]
+        d -= box * np.floor(d / box + 0.5)
+        r = np.sqrt((d * d).sum(axis=2))
+        nom = s.st[:, 7]
+        cut = s.rho_list * 0.5 * (nom[:, None] + nom[None, :]) + s.skin
+        want = (r < cut) & ~np.eye(len(nom), dtype=bool)
+        got = [set(s.nbr[i, :s.nnb[i]].tolist()) for i in range(len(nom))]
+        assert got == [set(np.flatnonzero(row).tolist()) for row in want]
+
+    check(s)
+    scratch = np.zeros((1, s.nbr.shape[1]), dtype=np.int32)
+    movers = np.concatenate([np.argsort(s.st[:, 7])[-3:], rng.integers(0, n, 200)])  # the largest ones too
+    for i in movers:
+        s.st[i, 0:3] = np.mod(s.st[i, 0:3] + rng.normal(0.0, 0.3, 3), box)
+        assert ed._rebuild_one(s.st, s.refs, int(i), s.lengths, s.half, s.periodic, s.lvl_ms, s.lvl_off, s.lvl_dmax,
+                               s.level, s.rho_list, s.skin, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof, scratch,
+                               np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64))
+    check(s)
+    lv = s.level
+    for i in range(n):  # every sphere is linked in its own level's cell
+        c = s.cellof[i]
+        assert s.lvl_off[lv[i]] <= c < s.lvl_off[lv[i] + 1]
+
+
+def test_one_level_below_the_level_ratio():
+    """sigma = 0.3 and 1:3 mixtures keep the one grid of before (their runs are bitwise those of before)."""
+    from spherejam.engines.event_driven import grid_levels
+
+    frame = neighbours.Frame.of(20.0, 3)
+    for nominal in (np.exp(np.random.default_rng(1).normal(0, 0.29, 10_000)), np.r_[np.ones(900), 3 * np.ones(100)]):
+        level, lvl_ms, lvl_off, _ = grid_levels(nominal / nominal.mean(), 1.0, 0.2, frame)
+        assert lvl_ms.shape == (1, 3) and not level.any() and lvl_off[-1] == np.prod(lvl_ms[0])

@@ -260,12 +260,14 @@ def test_checkpoint_saves_the_engine_state_whole_and_older_layouts_resume(tmp_pa
     arrays, attrs = load_checkpoint(ckpt, "ls")
     engine_arrays = {k for k in arrays if k.startswith("engine_")}
     assert engine_arrays == {f"engine_{k}" for k in ("st", "perm", "refs", "nbr", "nnb", "head", "nxt", "prv",
-                                                     "cellof", "ms")}
+                                                     "cellof", "lvl_ms", "lvl_off", "lvl_dmax", "level")}
     scalars = attrs["engine"]["engine"]  # the stepper's attributes, then the engine's
     assert set(scalars) | {k[len("engine_"):] for k in engine_arrays} == (set(EventState._fields) - set(WORKSPACE)
                                                                          - set(FRAME))
     del scalars["multi"]  # as written before multi-image lists
-    scalars["m"] = int(arrays.pop("engine_ms")[0])  # and before containers
+    scalars["m"] = int(arrays.pop("engine_lvl_ms")[0, 0])  # and before the levelled grid
+    for name in ("lvl_off", "lvl_dmax", "level"):
+        del arrays[f"engine_{name}"]
     scalars["box"] = packing.box
     save_checkpoint(ckpt, "ls", arrays, attrs)
     resumed = run_ls(packing, 0.05, seed=4, checkpoint=ckpt, progress_interval=1e9)

@@ -130,8 +130,9 @@ def test_ls_and_mls_in_every_container_keep_spheres_apart_and_inside(spec, sigma
 @pytest.mark.slow
 def test_the_pressure_on_a_flat_wall_obeys_the_contact_theorem():
     """A hard-sphere fluid between two walls at phi ~ 0.3: the momentum the walls take per area and time equals
-    k_B T times the density of centres at contact (the contact theorem), and both equal the pressure of the
-    collision virial with its wall term, P = p N k_B T / V."""
+    k_B T times the density of centres at contact (the contact theorem), and both equal the normal pressure of the
+    collision virial with its wall term, P_zz = p_zz N k_B T / V (the tangential ones differ near the walls, so the
+    mean of the three, the ``pressure`` MLS uses, lies a little below)."""
     n, temperature = 600, 0.2
     start = poisson_packing(n, seed=7, container="slab:height=14")
     fluid = run_ls(start, 0.2, target_phi=0.3, seed=3, progress_interval=1e9).packing
@@ -147,7 +148,7 @@ def test_the_pressure_on_a_flat_wall_obeys_the_contact_theorem():
     for _ in range(150):
         stats = engine.window(20 * n)
         wall.append(stats.wall_impulse / (2.0 * area * stats.duration))
-        virial.append(stats.pressure * n * temperature / volume)
+        virial.append(stats.pressure_axes[2] * n * temperature / volume)
         z = engine.positions[:, 2]
         h = np.histogram(np.minimum(z, c.lengths[2] - z), edges)[0] / (2.0 * area * np.diff(edges))
         contact.append(h)
@@ -156,6 +157,6 @@ def test_the_pressure_on_a_flat_wall_obeys_the_contact_theorem():
     centres = 0.5 * (edges[1:] + edges[:-1])
     rho_contact = np.polyval(np.polyfit(centres - radius, profile, 2), 0.0)
     se = lambda a: np.std(a, ddof=1) / math.sqrt(len(a))  # noqa: E731 (windows of 20 N events: nearly independent)
-    assert abs(wall.mean() - virial.mean()) < 3 * math.hypot(se(wall), se(virial)) + 0.01 * virial.mean()
+    assert abs(wall.mean() - virial.mean()) < 3 * math.hypot(se(wall), se(virial)) + 0.005 * virial.mean()
     assert temperature * rho_contact == pytest.approx(wall.mean(), rel=0.06)
     assert wall.mean() > 2.0 * n * temperature / volume  # denser than an ideal gas: the test has something to see

@@ -239,26 +239,33 @@ def cell_sort(positions, lengths, ms):
 
 
 @njit(cache=True)
-def link_cells(positions, lengths, ms):
-    """Linked cell lists of the grid of ``ms`` cells per axis: ``(head, nxt, prv, cell)`` (int32), head[c] the first
-    particle of cell c, nxt[i] / prv[i] the next / previous one in i's cell (-1: none), cell[i] the cell of i. Each
-    cell lists its particles in index order."""
+def link_levels(positions, level, lengths, lvl_ms, lvl_off):
+    """Linked cell lists of a grid of several levels: ``(head, nxt, prv, cell)`` (int32). Particle i is linked in
+    level ``level[i]``, a grid of ``lvl_ms[level[i]]`` cells per axis whose cells are ``lvl_off[l]`` ...
+    ``lvl_off[l + 1] - 1`` of ``head``; head[c] is the first particle of cell c, nxt[i] / prv[i] the next / previous
+    one in i's cell (-1: none), cell[i] the (global) cell of i. Each cell lists its particles in index order."""
     n = positions.shape[0]
-    ncells = 1
-    for k in range(positions.shape[1]):
-        ncells *= ms[k]
-    head = np.full(ncells, -1, dtype=np.int32)
+    head = np.full(lvl_off[-1], -1, dtype=np.int32)
     nxt = np.full(n, -1, dtype=np.int32)
     prv = np.full(n, -1, dtype=np.int32)
     cell = np.empty(n, dtype=np.int32)
     for i in range(n - 1, -1, -1):  # pushed at the head in reverse, so each cell ends up in index order
-        c = cell_of(positions[i], lengths, ms)
+        lv = level[i]
+        c = lvl_off[lv] + cell_of(positions[i], lengths, lvl_ms[lv])
         cell[i] = c
         nxt[i] = head[c]
         if head[c] >= 0:
             prv[head[c]] = i
         head[c] = i
     return head, nxt, prv, cell
+
+
+def link_cells(positions, lengths, ms):
+    """:func:`link_levels` of a grid of one level, ``ms`` cells per axis."""
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    n = positions.shape[0]
+    return link_levels(positions, np.zeros(n, dtype=np.int64), lengths, ms[None, :],
+                       np.array([0, int(np.prod(ms))], dtype=np.int64))
 
 
 @njit(cache=True, inline="always")

@@ -41,6 +41,41 @@ AUDIT_TOLERANCE = 1e-10
 #: Largest Verlet skin, in box lengths, when pairs meet through several images: a pair then reaches at most the
 #: images one box length from its minimum image (list cutoff <= L + 2 skin < 1.5 L).
 MULTI_IMAGE_MAX_SKIN = 0.2
+#: The cell grid gets levels once the largest sphere is this many times the median one (docs/algorithms.md §7.4):
+#: below it one grid sized by the largest sphere costs little (sigma <= 0.3, 1:3), above it that grid's cells hold
+#: hundreds of small spheres, or the whole box is one cell.
+LEVEL_RATIO = 4.0
+
+
+def grid_levels(nominal: np.ndarray, rho_list: float, skin: float, frame: Frame) -> tuple[np.ndarray, ...]:
+    """The levels of the cell grid for spheres of nominal diameters D_i: ``(level, lvl_ms, lvl_off, lvl_dmax)``
+    (the :class:`~.kernels.event_driven.EventState` fields).
+
+    One level (today's one grid, sized by the largest sphere) unless D_max >= LEVEL_RATIO x the median; then level
+    0 holds the spheres up to twice the median and each further level those up to twice the previous bound (empty
+    levels dropped), each grid sized by its own largest sphere and its own count (docs/algorithms.md §7.4)."""
+    n = len(nominal)
+    dmax = float(nominal.max())
+    typical = float(np.median(nominal))
+    if not dmax >= LEVEL_RATIO * typical:
+        ms = cells_per_axis(frame, rho_list * dmax + skin, n)
+        return (np.zeros(n, dtype=np.int32), ms[None, :], np.array([0, int(np.prod(ms))], dtype=np.int64),
+                np.array([dmax]))
+    bounds = [2.0 * typical]
+    while bounds[-1] < dmax:
+        bounds.append(2.0 * bounds[-1])
+    raw = np.searchsorted(np.array(bounds), nominal, side="left")
+    used, level = np.unique(raw, return_inverse=True)
+    lvl_ms, lvl_dmax, offsets = [], [], [0]
+    for lv in range(len(used)):
+        members = nominal[level == lv]
+        d = float(members.max())
+        ms = cells_per_axis(frame, rho_list * d + skin, len(members))
+        lvl_ms.append(ms)
+        lvl_dmax.append(d)
+        offsets.append(offsets[-1] + int(np.prod(ms)))
+    return (level.astype(np.int32), np.array(lvl_ms, dtype=np.int64), np.array(offsets, dtype=np.int64),
+            np.array(lvl_dmax))
 
 
 @dataclass
@@ -60,6 +95,8 @@ class WindowStats:
     self_contact: bool = False  #: the largest sphere touched its own image (rho reached rho_limit)
     wall_collisions: int = 0
     wall_impulse: float = 0.0  #: total impulse the walls gave the spheres (growth term excluded), m = 1
+    #: the diagonal of the reduced pressure tensor, P_kk V / (N k_B T) along x, y, z (their mean is ``pressure``)
+    pressure_axes: tuple = (math.nan, math.nan, math.nan)
 
 
 def _aligned_zeros(shape, dtype=np.float64) -> np.ndarray:
@@ -125,8 +162,9 @@ def fresh_state(positions, nominal, box, rho, velocities, gamma) -> ed.EventStat
     empty = np.zeros(0, dtype=np.int64)
     return ed.EventState(st=st, perm=np.arange(n), refs=np.zeros((n, 3)), nbr=_aligned_zeros((n, cap), np.int32),
                          nnb=np.zeros(n, dtype=np.int32), head=empty, nxt=empty, prv=empty, cellof=empty,
-                         **ed.workspace(n, cap), **_frame_fields(box), ms=np.ones(3, dtype=np.int64),
-                         rho0=float(rho), gamma=float(gamma), rho_list=float(rho), skin=0.0, multi=False,
+                         **ed.workspace(n, cap), **_frame_fields(box), lvl_ms=np.ones((1, 3), dtype=np.int64),
+                         lvl_off=np.array([0, 1], dtype=np.int64), lvl_dmax=np.array([float(np.max(nominal))]),
+                         level=np.zeros(n, dtype=np.int32), rho0=float(rho), gamma=float(gamma), rho_list=float(rho), skin=0.0, multi=False,
                          list_rebuilds=0)
 
 
@@ -134,11 +172,14 @@ def restore_state(arrays: dict[str, np.ndarray], scalars: dict[str, Any], box) -
     """The state a checkpoint saved (:meth:`~.kernels.event_driven.EventState.persistent`), work space fresh.
 
     The frame and walls come from ``box`` (the input's cube side or container), not from the checkpoint. Checkpoints
-    written before containers hold the cells per side as ``m``; before multi-image lists they lack ``multi``
+    written before containers hold one grid's cells per side as ``m``; before multi-image lists they lack ``multi``
     (they are single-image); their fields are otherwise the same."""
     arrays = dict(arrays)
-    if "ms" not in arrays and "m" in scalars:
-        arrays["ms"] = np.full(3, int(scalars["m"]), dtype=np.int64)
+    if "lvl_ms" not in arrays and "m" in scalars:
+        m = int(scalars["m"])
+        arrays.update(lvl_ms=np.full((1, 3), m, dtype=np.int64), lvl_off=np.array([0, m**3], dtype=np.int64),
+                      lvl_dmax=np.array([float(arrays["st"][:, 7].max())]),
+                      level=np.zeros(len(arrays["st"]), dtype=np.int32))
     scalars = {"multi": False, **scalars}
     frame = _frame_fields(box)
     fields = {}
@@ -228,23 +269,25 @@ class LSEngine:
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
             max_skin = MULTI_IMAGE_MAX_SKIN * period  # images one period away suffice (ed.image_collision)
         skin = min(max(opt.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
-        ms = cells_per_axis(frame, rho_list * dmax + skin, n)
-        st, perm = self._sorted_by_cell(ms)
+        _, lvl_ms, _, _ = grid_levels(nominal, rho_list, skin, frame)
+        st, perm = self._sorted_by_cell(lvl_ms[0])
+        level, lvl_ms, lvl_off, lvl_dmax = grid_levels(st[:, 7], rho_list, skin, frame)
         cap = s.nbr.shape[1]
         while True:
             nbr = _aligned_zeros((n, cap), np.int32)
-            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(st, s.lengths, s.half, s.periodic,
-                                                                          rho_list, skin, ms, nbr)
+            refs, nnb, head, nxt, prv, cellof, max_count = ed.build_lists(
+                st, s.lengths, s.half, s.periodic, rho_list, skin, lvl_ms, lvl_off, lvl_dmax, level, nbr)
             if max_count + 4 <= cap:
                 break
             cap = _round_cap(1.5 * max_count + 16)
         self.state = s._replace(st=st, perm=perm, refs=refs, nbr=nbr, nnb=nnb, head=head, nxt=nxt, prv=prv,
-                                cellof=cellof, scratch=ed.scratch_row(cap), ms=ms, rho_list=rho_list, skin=skin,
-                                multi=multi, list_rebuilds=s.list_rebuilds + 1)
+                                cellof=cellof, scratch=ed.scratch_row(cap), lvl_ms=lvl_ms, lvl_off=lvl_off,
+                                lvl_dmax=lvl_dmax, level=level, rho_list=rho_list, skin=skin, multi=multi,
+                                list_rebuilds=s.list_rebuilds + 1)
 
     def _sorted_by_cell(self, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(st, perm)`` renumbered in cell order, so that neighbours sit close in memory (all particles
-        synchronised)."""
+        """``(st, perm)`` renumbered in the order of the cells of the grid of ``ms`` cells per axis (the finest
+        level), so that neighbours sit close in memory (all particles synchronised)."""
         s = self.state
         order = cell_sort(np.mod(s.st[:, 0:3], s.lengths), s.lengths, ms)[2]
         if np.any(order != np.arange(self.n)):
@@ -342,6 +385,7 @@ class LSEngine:
             # network whose gaps are below double resolution (an N = 2 crystal): p = inf.
             raise SimulationError(f"{int(counters[ed.C_EVENTS])} events took no time: the event loop is stuck")
         pressure = 1.0 + abs(acc[ed.A_VIRIAL]) / (2.0 * e * t) if t > 0 else math.inf
+        axes = tuple(1.0 + 3.0 * abs(acc[ed.A_AXES + k]) / (2.0 * e * t) if t > 0 else math.inf for k in range(3))
         temperature = 2.0 * e / (3.0 * self.n)
         self.thermalise()
         s = self.state
@@ -360,5 +404,5 @@ class LSEngine:
             events=int(counters[ed.C_EVENTS]), skin_events=int(counters[ed.C_SKIN]),
             moves=int(counters[ed.C_MOVES]), null_collisions=int(counters[ed.C_NULL]),
             list_rebuilds=s.list_rebuilds - rebuilds0, reached_target=reached, self_contact=self_contact,
-            wall_collisions=int(counters[ed.C_WALL]), wall_impulse=float(acc[ed.A_WALL_IMPULSE]),
+            wall_collisions=int(counters[ed.C_WALL]), wall_impulse=float(acc[ed.A_WALL_IMPULSE]), pressure_axes=axes,
         )

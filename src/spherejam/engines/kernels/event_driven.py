@@ -24,6 +24,8 @@ Neighbour lists (exact at every density)
     j is listed with i iff |X_i - X_j| < rho_list D_ij + skin for the reference centres X. While every particle is
     within skin/2 of its reference centre and rho(t) <= rho_list, every pair that can touch is listed. Leaving the
     skin sphere is a per-particle event (a local, symmetric list update through a linked-cell grid, no global sweep);
+    a wide size distribution gets a grid of several **levels** (docs/algorithms.md §7.4): each sphere is linked in
+    the level sized for its own size class, and a search visits every level with a stencil as wide as its reach;
     reaching rho_list ends a kernel call (``HORIZON``) so the caller rebuilds all lists. Both the skin and rho_list
     are set from the *actual* diameters, so growth from phi ~ 1e-5 to jamming stays exact and O(N) per sweep.
     Positions are wrapped into the box only when the particle's list is rebuilt, so a single +-L fold gives the
@@ -53,7 +55,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from ...core.neighbours import (axis_cell, cell_of, fold, link_cells, move_to_cell, stencil_cell, stencil_size,
+from ...core.neighbours import (axis_cell, cell_of, fold, link_levels, move_to_cell, stencil_cell, stencil_size,
                                 unravel_cell)
 
 
@@ -70,7 +72,7 @@ class EventState(NamedTuple):
     refs: np.ndarray  #: (N, 3) reference centres of the Verlet lists
     nbr: np.ndarray  #: (N, cap) int32 neighbour lists, 64-byte aligned
     nnb: np.ndarray  #: (N,) int32 list lengths
-    head: np.ndarray  #: linked cells of the reference centres (core.neighbours.link_cells)
+    head: np.ndarray  #: linked cells of the reference centres (core.neighbours.link_levels)
     nxt: np.ndarray
     prv: np.ndarray
     cellof: np.ndarray
@@ -85,7 +87,10 @@ class EventState(NamedTuple):
     half: np.ndarray  #: (3,) L_k / 2 along periodic axes, +inf along walled ones (nothing folds there)
     periodic: np.ndarray  #: (3,) bool
     walls: np.ndarray  #: (9,) the container's walls (core.container.Container.wall_array)
-    ms: np.ndarray  #: (3,) int64 cells per axis
+    lvl_ms: np.ndarray  #: (levels, 3) int64 cells per axis of each level of the grid (one level: one grid)
+    lvl_off: np.ndarray  #: (levels + 1,) int64 index of each level's first cell in ``head``
+    lvl_dmax: np.ndarray  #: (levels,) the largest nominal diameter linked in each level
+    level: np.ndarray  #: (N,) int32 the level each particle is linked in
     rho0: float  #: diameter scale factor at t = 0 of the current window
     gamma: float  #: compression rate d rho / dt
     rho_list: float  #: scale factor up to which the lists are exact
@@ -143,10 +148,11 @@ INCONSISTENT = 3  #: an event time went backwards or became NaN
 #: Indices into the integer counter array of a window.
 C_EVENTS, C_COLLISIONS, C_SKIN, C_MOVES, C_NULL, C_WALL = 0, 1, 2, 3, 4, 5
 N_COUNTERS = 6
-#: Indices into the float accumulator array of a window: the virial sum_c |lever| * impulse (pairs and walls) and
-#: the total impulse given to the walls (growth term excluded in both).
-A_VIRIAL, A_WALL_IMPULSE = 0, 1
-N_ACCUMULATORS = 2
+#: Indices into the float accumulator array of a window: the virial sum_c |lever| * impulse (pairs and walls), the
+#: total impulse given to the walls, and the virial's diagonal components sum_c |lever| * impulse * n_k^2 along the
+#: three axes (growth term excluded in all; docs/containers.md §3).
+A_VIRIAL, A_WALL_IMPULSE, A_AXES = 0, 1, 2
+N_ACCUMULATORS = 5
 
 _INF = np.inf
 _SLOW = 1e-200  # |v|^2 below which the skin-exit root is solved in units of |v| (a * c would underflow)
@@ -401,10 +407,11 @@ def concave_delay(px, py, pz, wx, wy, wz, reach, a):
     return _INF
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def wall_event(xi, yi, zi, vxi, vyi, vzi, r, a, lengths, walls):
     """``(tau, wall)``: the first wall particle i meets (centre x, velocity v, radius r growing at a), or (inf, -1).
-    ``walls`` is :meth:`~spherejam.core.container.Container.wall_array`."""
+    ``walls`` is :meth:`~spherejam.core.container.Container.wall_array`. A call, not inlined: the periodic path's
+    prediction stays as small as it was."""
     best = _INF
     wall = -1
     if walls[0] != 0.0:
@@ -564,8 +571,48 @@ def _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head
     return count
 
 
+@njit(cache=True, inline="always")
+def _gather_levels(st, refs, i, x, y, z, lengths, half, periodic, rho_list, skin, head, nxt, lvl_ms, lvl_off,
+                   lvl_dmax, coords, shift, out, row):
+    """:func:`_gather_cell_block` over every level of a levelled grid: in level l, the stencil whose half-width
+    covers i's reach rho_list (D_i + D_max,l)/2 + skin. Returns the count (entries beyond the row's capacity are
+    counted, not written)."""
+    lx, ly, lz = lengths[0], lengths[1], lengths[2]
+    hx, hy, hz = half[0], half[1], half[2]
+    cap = out.shape[1]
+    di = st[i, 7]
+    count = 0
+    for lv in range(lvl_ms.shape[0]):
+        ms = lvl_ms[lv]
+        reach = rho_list * 0.5 * (di + lvl_dmax[lv]) + skin
+        w = 1
+        for k in range(3):
+            w = max(w, int(np.ceil(reach / (lengths[k] / ms[k]))))
+        coords[0] = axis_cell(x, lx, ms[0])
+        coords[1] = axis_cell(y, ly, ms[1])
+        coords[2] = axis_cell(z, lz, ms[2])
+        base = lvl_off[lv]
+        for o in range(stencil_size(w, ms)):
+            c = stencil_cell(coords, o, w, ms, lengths, periodic, shift)
+            if c < 0:
+                continue
+            j = head[base + c]
+            while j >= 0:
+                if j != i:
+                    dx = fold(refs[j, 0] - x, lx, hx)
+                    dy = fold(refs[j, 1] - y, ly, hy)
+                    dz = fold(refs[j, 2] - z, lz, hz)
+                    cut = rho_list * 0.5 * (di + st[j, 7]) + skin
+                    if dx * dx + dy * dy + dz * dz < cut * cut:
+                        if count < cap:
+                            out[row, count] = j
+                        count += 1
+                j = nxt[j]
+    return count
+
+
 @njit(cache=True)
-def build_lists(st, lengths, half, periodic, rho_list, skin, ms, nbr):
+def build_lists(st, lengths, half, periodic, rho_list, skin, lvl_ms, lvl_off, lvl_dmax, level, nbr):
     """All neighbour lists from scratch into ``nbr`` (N x cap); every particle must be synchronised.
 
     Wraps positions into [0, L_k) (a no-op along walled axes, where they stay inside), sets the reference centres
@@ -578,12 +625,21 @@ def build_lists(st, lengths, half, periodic, rho_list, skin, ms, nbr):
         for k in range(3):
             st[i, k] = _wrap(st[i, k], lengths[k])
             refs[i, k] = st[i, k]
-    head, nxt, prv, cellof = link_cells(refs, lengths, ms)
+    head, nxt, prv, cellof = link_levels(refs, level, lengths, lvl_ms, lvl_off)
     nnb = np.zeros(n, dtype=np.int32)
     cap = nbr.shape[1]
     max_count = 0
     coords = np.empty(3, dtype=np.int64)
     shift = np.empty(3)
+    if lvl_ms.shape[0] > 1:
+        for i in range(n):
+            count = _gather_levels(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], lengths, half, periodic,
+                                   rho_list, skin, head, nxt, lvl_ms, lvl_off, lvl_dmax, coords, shift, nbr, i)
+            nnb[i] = min(count, cap)
+            max_count = max(max_count, count)
+        return refs, nnb, head, nxt, prv, cellof, max_count
+    # one level: the 3x3x3 stencil of each cell, gathered once per cell (the spheres come in cell order)
+    ms = lvl_ms[0]
     cells = np.empty(27, dtype=np.int64)
     ncells = 0
     last = -1
@@ -611,8 +667,8 @@ def _remove_from_list(nbr, nnb, j, i):
 
 
 @njit(cache=True)
-def _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv, cellof,
-                 scratch, coords, shift, cells):
+def _rebuild_one(st, refs, i, lengths, half, periodic, lvl_ms, lvl_off, lvl_dmax, level, rho_list, skin, nbr, nnb,
+                 head, nxt, prv, cellof, scratch, coords, shift, cells):
     """Local Verlet update of particle i (synchronised): new reference centre = its wrapped position.
 
     Returns False (and changes nothing) if a list would overflow.
@@ -621,12 +677,18 @@ def _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, 
     x = _wrap(st[i, 0], lengths[0])
     y = _wrap(st[i, 1], lengths[1])
     z = _wrap(st[i, 2], lengths[2])
-    coords[0] = axis_cell(x, lengths[0], ms[0])
-    coords[1] = axis_cell(y, lengths[1], ms[1])
-    coords[2] = axis_cell(z, lengths[2], ms[2])
-    ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
-    count = _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head, nxt, cells, ncells,
-                               scratch, 0)
+    lv = level[i]
+    ms = lvl_ms[lv]
+    if lvl_ms.shape[0] > 1:
+        count = _gather_levels(st, refs, i, x, y, z, lengths, half, periodic, rho_list, skin, head, nxt, lvl_ms,
+                               lvl_off, lvl_dmax, coords, shift, scratch, 0)
+    else:
+        coords[0] = axis_cell(x, lengths[0], ms[0])
+        coords[1] = axis_cell(y, lengths[1], ms[1])
+        coords[2] = axis_cell(z, lengths[2], ms[2])
+        ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
+        count = _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head, nxt, cells, ncells,
+                                   scratch, 0)
     if count > cap or count > scratch.shape[1]:
         return False
     for k in range(count):
@@ -642,7 +704,7 @@ def _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, 
     refs[i, 0] = x
     refs[i, 1] = y
     refs[i, 2] = z
-    move_to_cell(i, cell_of(refs[i], lengths, ms), head, nxt, prv, cellof)
+    move_to_cell(i, lvl_off[lv] + cell_of(refs[i], lengths, ms), head, nxt, prv, cellof)
     for k in range(count):
         j = scratch[0, k]
         nbr[i, k] = j
@@ -676,6 +738,42 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
             best = tc
             best_type = COLLISION
             best_j = j
+    return best, best_type, best_j
+
+
+@njit(cache=True, inline="always")
+def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
+                   nbr, nnb, lx, ly, lz, hx, hy, hz):
+    """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
+    collision of particle i (at xi, moving at vi, at time t) that beats ``best`` and is available."""
+    for kk in range(nnb[i]):
+        j = nbr[i, kk]
+        if j == exclude:
+            continue
+        dtj = t - st[j, 6]
+        ux = st[j, 3] - vxi
+        uy = st[j, 4] - vyi
+        uz = st[j, 5] - vzi
+        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
+        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
+        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
+        sig = 0.5 * (di + st[j, 7])
+        s2 = sig * sig
+        b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
+        a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+        # skip pairs receding in the frame of the growing surfaces (b >= 0, a >= 0) and, for a >= 0 and b < 0,
+        # pairs whose root (>= c / (-2 b)) cannot win; non-short-circuit & and | leave one well-predicted branch
+        c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
+        lim = min(best, ev_time[j]) - t
+        if (a >= 0.0) & ((b >= 0.0) | ((c > 0.0) & (c > -2.0 * b * lim))):
+            continue
+        tau = collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma)
+        if tau < _INF:
+            tc = t + tau
+            if tc < best and tc <= ev_time[j]:
+                best = tc
+                best_type = COLLISION
+                best_j = j
     return best, best_type, best_j
 
 
@@ -721,38 +819,17 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
             best = t + tw
             best_type = WALL
             best_j = wall
-    if multi:  # outside the loop: the single-image loop below stays as tight as it was
+    if multi:  # outside the loop: the single-image loop stays as tight as it was
         best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
                                                   best_type, best_j, st, ev_time, nbr, nnb, lengths, half, periodic,
                                                   gamma, skin, rho_list)
-    for kk in range(0 if multi else nnb[i]):
-        j = nbr[i, kk]
-        if j == exclude:
-            continue
-        dtj = t - st[j, 6]
-        ux = st[j, 3] - vxi
-        uy = st[j, 4] - vyi
-        uz = st[j, 5] - vzi
-        rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
-        ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
-        rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
-        sig = 0.5 * (di + st[j, 7])
-        s2 = sig * sig
-        b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
-        a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
-        # skip pairs receding in the frame of the growing surfaces (b >= 0, a >= 0) and, for a >= 0 and b < 0,
-        # pairs whose root (>= c / (-2 b)) cannot win; non-short-circuit & and | leave one well-predicted branch
-        c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
-        lim = min(best, ev_time[j]) - t
-        if (a >= 0.0) & ((b >= 0.0) | ((c > 0.0) & (c > -2.0 * b * lim))):
-            continue
-        tau = collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma)
-        if tau < _INF:
-            tc = t + tau
-            if tc < best and tc <= ev_time[j]:
-                best = tc
-                best_type = COLLISION
-                best_j = j
+    elif (lx == ly) & (ly == lz) & (hx == hy) & (hy == hz):
+        # the periodic cube: one length and one half-length, in two registers instead of six
+        best, best_type, best_j = _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
+                                                 best_type, best_j, st, ev_time, nbr, nnb, lx, lx, lx, hx, hx, hx)
+    else:
+        best, best_type, best_j = _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
+                                                 best_type, best_j, st, ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz)
     ev_time[i] = best
     ev_type[i] = best_type
     ev_partner[i] = best_j
@@ -803,7 +880,8 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     # every field unpacked once, outside the loop (see _predict)
     st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
     ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
-    scratch, ms, rho0, gamma, rho_list, skin, multi = s.scratch, s.ms, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
+    scratch, rho0, gamma, rho_list, skin, multi = s.scratch, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
+    lvl_ms, lvl_off, lvl_dmax, level = s.lvl_ms, s.lvl_off, s.lvl_dmax, s.level
     lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
     lx, ly, lz = lengths[0], lengths[1], lengths[2]
     hx, hy, hz = half[0], half[1], half[2]
@@ -822,8 +900,8 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
         kind = ev_type[i]
         if kind == SKIN:
             _sync(st, i, te)
-            if not _rebuild_one(st, refs, i, lengths, half, periodic, ms, rho_list, skin, nbr, nnb, head, nxt, prv,
-                                cellof, scratch, coords, shift, cells):
+            if not _rebuild_one(st, refs, i, lengths, half, periodic, lvl_ms, lvl_off, lvl_dmax, level, rho_list, skin,
+                                nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift, cells):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
@@ -867,7 +945,11 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 st[j, 3] -= dv * nx
                 st[j, 4] -= dv * ny
                 st[j, 5] -= dv * nz
-                acc[A_VIRIAL] += (vin - vjn) * r
+                w = (vin - vjn) * r
+                acc[A_VIRIAL] += w
+                acc[A_AXES] += w * nx * nx
+                acc[A_AXES + 1] += w * ny * ny
+                acc[A_AXES + 2] += w * nz * nz
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
@@ -885,7 +967,10 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 # elastic reflection in the frame of the growing surface: u' = -u
                 for k in range(3):
                     st[i, 3 + k] -= 2.0 * u * normal[k]
-                acc[A_VIRIAL] += 2.0 * vn * 0.5 * (rho0 + gamma * t) * st[i, 7]
+                w = 2.0 * vn * 0.5 * (rho0 + gamma * t) * st[i, 7]
+                acc[A_VIRIAL] += w
+                for k in range(3):
+                    acc[A_AXES + k] += w * normal[k] * normal[k]
                 acc[A_WALL_IMPULSE] += 2.0 * vn
                 counters[C_WALL] += 1
             else:
