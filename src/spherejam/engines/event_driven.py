@@ -164,8 +164,8 @@ def fresh_state(positions, nominal, box, rho, velocities, gamma) -> ed.EventStat
                          nnb=np.zeros(n, dtype=np.int32), head=empty, nxt=empty, prv=empty, cellof=empty,
                          **ed.workspace(n, cap), **_frame_fields(box), lvl_ms=np.ones((1, 3), dtype=np.int64),
                          lvl_off=np.array([0, 1], dtype=np.int64), lvl_dmax=np.array([float(np.max(nominal))]),
-                         level=np.zeros(n, dtype=np.int32), rho0=float(rho), gamma=float(gamma), rho_list=float(rho), skin=0.0, multi=False,
-                         list_rebuilds=0)
+                         level=np.zeros(n, dtype=np.int32), rho0=float(rho), gamma=float(gamma), rho_list=float(rho),
+                         skin=0.0, multi=False, list_rebuilds=0)
 
 
 def restore_state(arrays: dict[str, np.ndarray], scalars: dict[str, Any], box) -> ed.EventState:
