@@ -351,3 +351,19 @@ def test_one_level_below_the_level_ratio():
     for nominal in (np.exp(np.random.default_rng(1).normal(0, 0.29, 10_000)), np.r_[np.ones(900), 3 * np.ones(100)]):
         level, lvl_ms, lvl_off, _ = grid_levels(nominal / nominal.mean(), 1.0, 0.2, frame)
         assert lvl_ms.shape == (1, 3) and not level.any() and lvl_off[-1] == np.prod(lvl_ms[0])
+
+
+@pytest.mark.parametrize("periodic", [(True, True, True), (True, True, False), (False, False, True)])
+def test_the_event_driven_stencil_is_the_general_one(rng, periodic):
+    """The kernel's 3x3x3 stencil, built axis by axis, lists the cells of core.neighbours.stencil_cell in the same
+    order (the order of the neighbour lists, hence of a run's arithmetic), walls included."""
+    periodic = np.array(periodic)
+    shift = np.empty(3)
+    cells = np.empty(27, dtype=np.int64)
+    for _ in range(200):
+        ms = rng.choice([1, 3, 4, 7], 3).astype(np.int64)
+        coords = np.array([rng.integers(0, m) for m in ms], dtype=np.int64)
+        want = [neighbours.stencil_cell(coords, o, 1, ms, np.ones(3), periodic, shift)
+                for o in range(neighbours.stencil_size(1, ms))]
+        count = ed._stencil_of(coords, periodic, ms, cells)
+        assert cells[:count].tolist() == [c for c in want if c >= 0]

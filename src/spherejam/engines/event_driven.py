@@ -95,7 +95,8 @@ class WindowStats:
     self_contact: bool = False  #: the largest sphere touched its own image (rho reached rho_limit)
     wall_collisions: int = 0
     wall_impulse: float = 0.0  #: total impulse the walls gave the spheres (growth term excluded), m = 1
-    #: the diagonal of the reduced pressure tensor, P_kk V / (N k_B T) along x, y, z (their mean is ``pressure``)
+    #: the diagonal of the reduced pressure tensor, P_kk V / (N k_B T) along x, y, z (their mean is ``pressure``);
+    #: measured in a container with walls only
     pressure_axes: tuple = (math.nan, math.nan, math.nan)
 
 
@@ -385,7 +386,8 @@ class LSEngine:
             # network whose gaps are below double resolution (an N = 2 crystal): p = inf.
             raise SimulationError(f"{int(counters[ed.C_EVENTS])} events took no time: the event loop is stuck")
         pressure = 1.0 + abs(acc[ed.A_VIRIAL]) / (2.0 * e * t) if t > 0 else math.inf
-        axes = tuple(1.0 + 3.0 * abs(acc[ed.A_AXES + k]) / (2.0 * e * t) if t > 0 else math.inf for k in range(3))
+        axes = tuple(1.0 + 3.0 * abs(acc[ed.A_AXES + k]) / (2.0 * e * t) if t > 0 else math.inf for k in range(3)) \
+            if self.state.has_walls else (math.nan,) * 3
         temperature = 2.0 * e / (3.0 * self.n)
         self.thermalise()
         s = self.state

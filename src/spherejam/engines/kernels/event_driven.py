@@ -530,18 +530,50 @@ def _wrap(x, box):
 
 
 @njit(cache=True, inline="always")
-def _stencil_of(coords, lengths, periodic, ms, cells, shift):
-    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells`` (those beyond a wall left out);
-    returns their number.
+def _axis_cells(c, m, periodic):
+    """The cell coordinates of the 3x3x3 stencil along one axis, in the order of
+    :func:`~spherejam.core.neighbours.stencil_cell`: ``(count, c0, c1, c2)``, the neighbours c - 1, c, c + 1
+    (wrapped; -1 beyond a wall), or the m < 3 cells of a short axis once."""
+    if m < 3:
+        return m, 0, 1, 2
+    lo = c - 1
+    hi = c + 1
+    if lo < 0:
+        lo = m - 1 if periodic else -1
+    if hi >= m:
+        hi = 0 if periodic else -1
+    return 3, lo, c, hi
 
-    Gathered once per cell, not per sphere: a full rebuild visits the spheres in cell order.
+
+@njit(cache=True, inline="always")
+def _stencil_of(coords, periodic, ms, cells):
+    """The cells of the 3x3x3 stencil around the cell at ``coords`` into ``cells`` (those beyond a wall left out),
+    in the order of :func:`~spherejam.core.neighbours.stencil_cell` (first axis fastest); returns their number.
+
+    Three cell coordinates per axis first, then their 27 combinations: a skin event's stencil costs a tenth of 27
+    calls of the general d-dimensional stencil. Gathered once per cell, not per sphere, by a full rebuild, which
+    visits the spheres in cell order.
     """
+    mx = ms[0]
+    my = ms[1]
+    nx, x0, x1, x2 = _axis_cells(coords[0], mx, periodic[0])
+    ny, y0, y1, y2 = _axis_cells(coords[1], my, periodic[1])
+    nz, z0, z1, z2 = _axis_cells(coords[2], ms[2], periodic[2])
     count = 0
-    for o in range(stencil_size(1, ms)):
-        c = stencil_cell(coords, o, 1, ms, lengths, periodic, shift)  # shift unused: differences are folded
-        if c >= 0:
-            cells[count] = c
-            count += 1
+    for c in range(nz):
+        zc = z0 if c == 0 else (z1 if c == 1 else z2)
+        if zc < 0:
+            continue
+        for b in range(ny):
+            yb = y0 if b == 0 else (y1 if b == 1 else y2)
+            if yb < 0:
+                continue
+            row = mx * (yb + my * zc)
+            for a in range(nx):
+                xa = x0 if a == 0 else (x1 if a == 1 else x2)
+                if xa >= 0:
+                    cells[count] = xa + row
+                    count += 1
     return count
 
 
@@ -550,8 +582,17 @@ def _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head
     """Write every j != i with |X_j - (x, y, z)| < rho_list D_ij + skin in the cells ``cells[:ncells]`` (the
     stencil of the point's cell) to ``out[row, :]``; returns the count (entries beyond the row's capacity are
     counted, not written)."""
-    lx, ly, lz = lengths[0], lengths[1], lengths[2]
-    hx, hy, hz = half[0], half[1], half[2]
+    lx, ly, lz, hx, hy, hz, cube = _geometry(lengths, half)
+    if cube:  # one length and one half-length, in two registers instead of six (as in _predict)
+        return _gather_cells(st, refs, i, x, y, z, lx, lx, lx, hx, hx, hx, rho_list, skin, head, nxt, cells, ncells,
+                             out, row)
+    return _gather_cells(st, refs, i, x, y, z, lx, ly, lz, hx, hy, hz, rho_list, skin, head, nxt, cells, ncells, out,
+                         row)
+
+
+@njit(cache=True, inline="always")
+def _gather_cells(st, refs, i, x, y, z, lx, ly, lz, hx, hy, hz, rho_list, skin, head, nxt, cells, ncells, out, row):
+    """The loop of :func:`_gather_cell_block`, the frame's lengths as scalars."""
     cap = out.shape[1]
     di = st[i, 7]
     count = 0
@@ -647,7 +688,7 @@ def build_lists(st, lengths, half, periodic, rho_list, skin, lvl_ms, lvl_off, lv
         if cellof[i] != last:
             last = cellof[i]
             unravel_cell(last, ms, coords)
-            ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
+            ncells = _stencil_of(coords, periodic, ms, cells)
         count = _gather_cell_block(st, refs, i, refs[i, 0], refs[i, 1], refs[i, 2], lengths, half, rho_list, skin,
                                    head, nxt, cells, ncells, nbr, i)
         nnb[i] = min(count, cap)
@@ -686,7 +727,7 @@ def _rebuild_one(st, refs, i, lengths, half, periodic, lvl_ms, lvl_off, lvl_dmax
         coords[0] = axis_cell(x, lengths[0], ms[0])
         coords[1] = axis_cell(y, lengths[1], ms[1])
         coords[2] = axis_cell(z, lengths[2], ms[2])
-        ncells = _stencil_of(coords, lengths, periodic, ms, cells, shift)
+        ncells = _stencil_of(coords, periodic, ms, cells)
         count = _gather_cell_block(st, refs, i, x, y, z, lengths, half, rho_list, skin, head, nxt, cells, ncells,
                                    scratch, 0)
     if count > cap or count > scratch.shape[1]:
@@ -742,6 +783,15 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
 
 
 @njit(cache=True, inline="always")
+def _geometry(lengths, half):
+    """``(L_x, L_y, L_z, h_x, h_y, h_z, cube)``: the frame's lengths and half-lengths as scalars, and whether it is
+    the periodic cube (every length and half-length equal)."""
+    lx, ly, lz = lengths[0], lengths[1], lengths[2]
+    hx, hy, hz = half[0], half[1], half[2]
+    return lx, ly, lz, hx, hy, hz, (lx == ly) and (ly == lz) and (hx == hy) and (hy == hz)
+
+
+@njit(cache=True, inline="always")
 def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
                    nbr, nnb, lx, ly, lz, hx, hy, hz):
     """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
@@ -779,10 +829,12 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
 
 @njit(cache=True, inline="always")
 def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb,
-             lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap):
+             geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap):
     """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
     are :class:`EventState`'s fields.
 
+    ``geom`` is :func:`_geometry` of the frame: its lengths as scalars, read once per kernel call (an array read here
+    would be re-read at every prediction: the compiler cannot tell that the event loop's stores leave it alone).
     ``exclude`` is the partner of a collision just processed. ``multi``: a pair may meet through several periodic
     images (a list cutoff >= L/2); every image within reach is predicted, and ``exclude`` loses only the image that
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
@@ -791,8 +843,7 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     event loop (docs/algorithms.md §7.3).
     """
     n = st.shape[0]
-    lx, ly, lz = lengths[0], lengths[1], lengths[2]
-    hx, hy, hz = half[0], half[1], half[2]
+    lx, ly, lz, hx, hy, hz, cube = geom
     # release: a partner that expected to collide with i falls back to a re-prediction at the same time
     if ev_type[i] == COLLISION:
         k = ev_partner[i]
@@ -823,7 +874,7 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
         best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
                                                   best_type, best_j, st, ev_time, nbr, nnb, lengths, half, periodic,
                                                   gamma, skin, rho_list)
-    elif (lx == ly) & (ly == lz) & (hx == hy) & (hy == hz):
+    elif cube:
         # the periodic cube: one length and one half-length, in two registers instead of six
         best, best_type, best_j = _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
                                                  best_type, best_j, st, ev_time, nbr, nnb, lx, lx, lx, hx, hx, hx)
@@ -856,6 +907,7 @@ def init_events(s, t):
     ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
     lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
     rho0, gamma, skin, rho_list, multi = s.rho0, s.gamma, s.skin, s.rho_list, s.multi
+    geom = _geometry(lengths, half)
     n = st.shape[0]
     for i in range(n):
         ev_time[i] = t
@@ -863,7 +915,7 @@ def init_events(s, t):
         ev_partner[i] = -1
     for i in range(n):
         _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                 nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False)
+                 nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
@@ -883,8 +935,8 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     scratch, rho0, gamma, rho_list, skin, multi = s.scratch, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
     lvl_ms, lvl_off, lvl_dmax, level = s.lvl_ms, s.lvl_off, s.lvl_dmax, s.level
     lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
-    lx, ly, lz = lengths[0], lengths[1], lengths[2]
-    hx, hy, hz = half[0], half[1], half[2]
+    geom = _geometry(lengths, half)
+    lx, ly, lz, hx, hy, hz, _ = geom
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
     shift = np.empty(3)
     cells = np.empty(27, dtype=np.int64)
@@ -905,7 +957,7 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -947,16 +999,17 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 st[j, 5] -= dv * nz
                 w = (vin - vjn) * r
                 acc[A_VIRIAL] += w
-                acc[A_AXES] += w * nx * nx
-                acc[A_AXES + 1] += w * ny * ny
-                acc[A_AXES + 2] += w * nz * nz
+                if has_walls:  # the normal pressure at a wall (docs/containers.md §3); a bulk box needs the mean only
+                    acc[A_AXES] += w * nx * nx
+                    acc[A_AXES + 1] += w * ny * ny
+                    acc[A_AXES + 2] += w * nz * nz
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
             _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
         elif kind == WALL:
             t = te
             _sync(st, i, t)
@@ -976,11 +1029,11 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
             else:
                 counters[C_NULL] += 1
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
         else:
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
