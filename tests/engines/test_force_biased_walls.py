@@ -38,7 +38,7 @@ def _mirror_pair_force(x, mirror, d, rho_out):
     return out[0]
 
 
-@pytest.mark.parametrize("h", [0.2, 0.45, 0.56])
+@pytest.mark.parametrize("h", [0.2, 0.45, 0.56, 0.6])  # the last: the outer sphere clears the wall
 def test_a_plane_pushes_a_sphere_as_its_mirror_image_does(h):
     """A sphere at height h above the wall z = 0 of a slab: the wall's force is the pair force of its mirror image
     at -h, it points into the slab, and one FB move pushes the sphere off by exactly the step of that force (the
