@@ -7,6 +7,9 @@ Run once per checkout, then compare:
     PYTHONPATH=/path/to/branch/src python benchmarks/bitwise_main.py run /tmp/branch.npz
     python benchmarks/bitwise_main.py compare /tmp/main.npz /tmp/branch.npz
 
+``run PATH --only fb`` (or ``ls,mls``) runs only those algorithms; compare then reports the others' arrays as in one
+file only.
+
 Cases: N = 100, 200, 500, 1000, sigma = 0 and 0.3, seeds 0-1 (LS at gamma = 0.1, MLS from 10 to 1e-2, FB at
 gamma = 1e-2); a case the older checkout refuses is recorded as such and skipped in the comparison.
 """
@@ -20,7 +23,7 @@ import numpy as np
 CASES = [(n, sigma, seed) for n in (100, 200, 500, 1000) for sigma in (0.0, 0.3) for seed in (0, 1)]
 
 
-def run(path: str) -> None:
+def run(path: str, only: set[str] | None = None) -> None:
     from spherejam import find_closest_jamming, poisson_packing, run_fb, run_ls
 
     out = {}
@@ -32,6 +35,8 @@ def run(path: str) -> None:
             "fb": lambda p: run_fb(p, 1e-2, progress_interval=1e9),
         }
         for alg, fn in runs.items():
+            if only is not None and alg not in only:
+                continue
             key = f"{alg}_{n}_{sigma}_{seed}"
             try:
                 q = fn(start).packing
@@ -59,6 +64,6 @@ def compare(a: str, b: str) -> None:
 
 if __name__ == "__main__":
     if sys.argv[1] == "run":
-        run(sys.argv[2])
+        run(sys.argv[2], set(sys.argv[4].split(",")) if sys.argv[3:4] == ["--only"] else None)
     else:
         compare(sys.argv[2], sys.argv[3])

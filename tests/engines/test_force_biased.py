@@ -24,6 +24,12 @@ def _same_run(a, b):
             assert np.array_equal(a.history[key], b.history[key]), key
 
 
+def _cube(box, dim=3):
+    """The kernels' frame arrays (lengths, half, periodic) of the periodic cube of side ``box``."""
+    frame = neighbours.Frame.of(box, dim)
+    return frame.lengths, frame.half, frame.periodic
+
+
 def test_nominal_density_rule_is_the_papers_line():
     assert fb.nominal_density_for_rate(1e-3) == pytest.approx(0.6, abs=1e-14)
     assert fb.nominal_density_for_rate(1e-7) == pytest.approx(0.7, abs=1e-14)
@@ -37,10 +43,10 @@ def test_forces_match_brute_force_bezrukov(rng):
     n, box, rho_out = 60, 4.0, 1.05
     pos = rng.random((n, 3)) * box
     dia = rng.uniform(0.6, 1.4, n)
-    m = neighbours.cells_per_side(box, rho_out * dia.max() + 0.3, 3, n)
-    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, 0.3, m, 64 * n)
+    ms = neighbours.cells_per_axis(box, rho_out * dia.max() + 0.3, n, 3)
+    start, nbr = kernels.build_verlet(pos, dia, *_cube(box), rho_out, 0.3, ms, 64 * n)
     forces = np.empty_like(pos)
-    h = kernels.forces(pos, dia, box, rho_out, start, nbr, forces, np.empty(3), False)
+    h = kernels.forces(pos, dia, *_cube(box), rho_out, start, nbr, forces, np.empty(3), False)
     expected = np.zeros_like(pos)
     hmin = np.inf
     for i in range(n):
@@ -66,10 +72,10 @@ def test_verlet_list_matches_brute_force(rng, box):
     dia = np.exp(rng.normal(0.0, 0.5, n))  # wide size ratio: large spheres scan wider stencils
     dia *= (0.5 * box**3 / n / (np.pi / 6 * np.mean(dia**3))) ** (1 / 3)
     rho_out, skin = 1.06, 0.2
-    m = neighbours.cells_per_side(box, rho_out * np.quantile(dia, 0.5) + skin, 3, n)
-    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, skin, m, 4)  # tiny capacity: must report overflow
+    ms = neighbours.cells_per_axis(box, rho_out * np.quantile(dia, 0.5) + skin, n, 3)
+    start, nbr = kernels.build_verlet(pos, dia, *_cube(box), rho_out, skin, ms, 4)  # tiny capacity: must overflow
     assert len(start) == 0
-    start, nbr = kernels.build_verlet(pos, dia, box, rho_out, skin, m, 64 * n)
+    start, nbr = kernels.build_verlet(pos, dia, *_cube(box), rho_out, skin, ms, 64 * n)
     got = {(i, int(j)) for i in range(n) for j in nbr[start[i]:start[i + 1]]}
     bi, bj, _ = neighbours.brute_force_pairs(pos, dia * rho_out, box, 1.0)  # within rho_out D_ij ...
     inner = set(zip(bi.tolist(), bj.tolist()))
@@ -88,7 +94,8 @@ def test_move_wraps_any_displacement():
     pos = np.array([[0.1, 9.9, 5.0], [5.0, 5.0, 5.0]])
     forces = np.array([[-1234.5, 987.6, 1e6], [0.0, 0.0, -3e-17]])
     drift = np.zeros_like(pos)
-    kernels.move(pos, np.ones(2), 10.0, forces, 1.0, drift)
+    lengths, _, periodic = _cube(10.0)
+    kernels.move(pos, np.ones(2), lengths, periodic, np.zeros(9), False, 0.5, forces, 1.0, drift)
     assert np.all(pos >= 0) and np.all(pos < 10.0)
     np.testing.assert_allclose(pos[0], np.mod([0.1 - 1234.5, 9.9 + 987.6, 5.0 + 1e6], 10.0), atol=1e-9)
     np.testing.assert_array_equal(drift, forces)

@@ -1,17 +1,20 @@
 """The force-biased (FB) packing algorithm (Mościński et al. 1989; Bezrukov, Bargieł & Stoyan 2002), as the paper
 applies it (docs/algorithms.md §4).
 
-Every sphere i has a fixed nominal diameter D_i, scaled so that the spheres fill ``phi_nominal`` of the box, and two
-global scale factors:
+Every sphere i has a fixed nominal diameter D_i, scaled so that the spheres fill ``phi_nominal`` of the container's
+volume (the box's L^d in a periodic cube), and two global scale factors:
 
-* inner ratio ``rho_in = min_ij r_ij / D_ij``: the largest overlap-free scale (the closest pair touches);
+* inner ratio ``rho_in = min(min_ij r_ij / D_ij, min_i 2 h_i / D_i)``: the largest overlap-free scale (the closest
+  pair touches, or a sphere touches a wall; h_i is the distance of centre i to its nearest wall);
 * outer ratio ``rho_out``, starting at ``1.2**(1/d)`` (outer spheres fill 1.2 phi_nominal) and shrinking.
 
 One iteration (Jacobi: all forces come from the configuration at the start of the iteration):
 
-1. move ``x_i += eps / (2 D_i) * rho_out**2 * F_i`` with eps = 0.5, and wrap into the box;
+1. move ``x_i += eps / (2 D_i) * rho_out**2 * F_i`` with eps = 0.5, and wrap into the box along its periodic axes;
+   in a container, a centre that would end closer to a wall than rho_in D_i / 2 is put back at that distance;
 2. recompute ``F_i = sum_j D_i D_j (1 - r_ij**2 / (rho_out D_ij)**2) e_ji`` over the pairs whose *outer* spheres
-   overlap (e_ji: unit vector from j to i), and ``rho_in``;
+   overlap (e_ji: unit vector from j to i), plus the walls' forces (each wall acts as the sphere's mirror image
+   across it: ``D_i**2 (1 - (2 h_i / (rho_out D_i))**2)`` along its inward normal), and ``rho_in``;
 3. shrink ``rho_out -= 0.5**k * rho_out0 * gamma`` with ``k = ceil(-log10(1.2 phi_nominal - phi_in))``
    (no shrink once ``phi_in >= 1.2 phi_nominal``).
 
@@ -27,6 +30,9 @@ Neighbours: a Verlet list of all pairs with ``r_ij < rho_out D_ij + skin`` (buil
 ``rho_out`` never grows, the list then holds every pair whose outer spheres overlap. Each sphere's list is sorted
 by index, so the force sums (and hence the result) do not depend on when the list was built: a resumed run is
 bitwise identical to an uninterrupted one.
+
+Containers (core/container; docs/algorithms.md §4.6 "FB with walls"): the list and the forces run in the container's
+frame, with minimum images along its periodic axes only; the walls' forces and distances are exact (no list).
 """
 
 from __future__ import annotations
@@ -92,11 +98,11 @@ class _Neighbours:
     larger spheres scan a wider stencil (rho_out never grows, so this stays valid).
     """
 
-    def __init__(self, positions, diameters, box, rho_out):
-        n, dim = positions.shape
+    def __init__(self, positions, diameters, frame, rho_out):
+        n = positions.shape[0]
         self.skin = SKIN * float(np.mean(diameters))
         typical = float(np.quantile(diameters, CELL_QUANTILE))
-        self.m = neighbours.cells_per_side(box, rho_out * typical + self.skin, dim, n)
+        self.ms = neighbours.cells_per_axis(frame, rho_out * typical + self.skin, n)
         self.capacity = 32 * n
         self.max_diameter = float(diameters.max())
         self.rho_built = rho_out
@@ -105,12 +111,13 @@ class _Neighbours:
         self.start = self.list = None
         self.max_drift = math.inf
 
-    def refresh(self, positions, diameters, box, rho_out):
+    def refresh(self, positions, diameters, frame, rho_out):
         """Rebuild if two spheres may have approached by more than the skin since the last build."""
         if self.start is None or 2.0 * self.max_drift >= self.skin:
             while True:
-                self.start, self.list = kernels.build_verlet(positions, diameters, box, rho_out, self.skin, self.m,
-                                                      self.capacity)
+                self.start, self.list = kernels.build_verlet(positions, diameters, frame.lengths, frame.half,
+                                                             frame.periodic, rho_out, self.skin, self.ms,
+                                                             self.capacity)
                 if len(self.start):
                     break
                 self.capacity *= 2  # more pairs than room: retry (rare; the list itself is the same)
@@ -143,16 +150,23 @@ class FBRun(Stepper):
                  parameters: dict):
         self.input, self.rate, self.phi_nominal, self.max_iterations = packing, rate, phi_nominal, max_iterations
         self.parameters = parameters
-        self.box, self.dim = packing.require_cube("the force-biased (FB) engine"), packing.dim
+        self.dim, container = packing.dim, packing.container
+        self.frame = neighbours.Frame.of(container)
+        self.has_walls = container.has_walls
+        # the walls for the kernels (core.container.Container.wall_array; unused without walls, any dimension)
+        self.walls = container.wall_array() if self.has_walls else np.zeros(9)
+        #: the shortest periodic length (inf if none): no sphere may overlap its own image across it
+        self.period = min((L for L, p in zip(container.lengths, container.periodic) if p), default=math.inf)
         rel = packing.diameters / packing.mean_diameter
-        self.nominal = rel * (phi_nominal * self.box**self.dim / float(np.sum(ball_volume(rel, self.dim)))) ** (
+        self.nominal = rel * (phi_nominal * packing.volume / float(np.sum(ball_volume(rel, self.dim)))) ** (
             1.0 / self.dim)
         self.rho_out0 = OUTER_DENSITY_RATIO ** (1.0 / self.dim)
         self.label = f"fb N={packing.n} rate={rate:g}"
         self.forces = np.zeros_like(packing.positions)
         self.dx = np.empty(self.dim)
-        # an outer sphere reaches an image other than the minimum one only if rho_out D_ij > L/2 (rho_out shrinks)
-        self.multi = bool(self.rho_out0 * float(self.nominal.max()) > 0.5 * self.box)
+        # an outer sphere reaches an image other than the minimum one only if rho_out D_ij > L_k/2 along a periodic
+        # axis (rho_out shrinks)
+        self.multi = bool(self.rho_out0 * float(self.nominal.max()) > 0.5 * self.period)
 
     def _history(self, columns=None, stride=1) -> History:
         return History(columns, step="iteration", max_rows=MAX_HISTORY_ROWS, stride=stride)
@@ -163,16 +177,21 @@ class FBRun(Stepper):
                             max_overlap=1.0 - self.rho_in / self.rho_out, wall_time=wall_time)
 
     def _compute_forces(self) -> float:
-        """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out)."""
-        nb, positions, nominal, box = self.nb, self.positions, self.nominal, self.box
-        nb.refresh(positions, nominal, box, self.rho_out)
-        h = kernels.forces(positions, nominal, box, self.rho_out, nb.start, nb.list, self.forces, self.dx,
-                           self.multi)
-        if not h < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
-            i, j, _ = neighbours.closest_pair(positions, nominal, box)
-            h = kernels.pair_ratio(positions, nominal, box, i, j)  # rounded exactly as in kernels.forces
+        """Forces at the current rho_out and the exact rho_in (the list is exact below rho_out; the walls are
+        exact)."""
+        nb, positions, nominal, frame = self.nb, self.positions, self.nominal, self.frame
+        nb.refresh(positions, nominal, frame, self.rho_out)
+        h = kernels.forces(positions, nominal, frame.lengths, frame.half, frame.periodic, self.rho_out, nb.start,
+                           nb.list, self.forces, self.dx, self.multi)
+        h_wall = math.inf
+        if self.has_walls:
+            h_wall = kernels.wall_forces(positions, nominal, frame.lengths, self.walls, self.rho_out, self.forces)
+        if not min(h, h_wall) < nb.exact_below():  # the closest pair may lie outside the list: find it exactly
+            i, j, _ = neighbours.closest_pair(positions, nominal, self.input.frame)
+            h = kernels.pair_ratio(positions, nominal, frame.lengths, frame.half, i, j)  # as in kernels.forces
         if self.multi:  # nor may a sphere overlap its own image (the forces of its own images cancel)
-            h = min(h, box / float(nominal.max()))
+            h = min(h, self.period / float(nominal.max()))
+        h = min(h, h_wall)
         if not math.isfinite(h) or not np.all(np.isfinite(self.forces)):
             raise SimulationError(f"FB iteration {self.iteration}: non-finite forces or inner ratio ({h!r})")
         return h
@@ -182,7 +201,7 @@ class FBRun(Stepper):
         self.positions = self.input.positions.copy()
         self.rho_out, self.iteration = self.rho_out0, 0
         self.history = self._history()
-        self.nb = _Neighbours(self.positions, self.nominal, self.box, self.rho_out)
+        self.nb = _Neighbours(self.positions, self.nominal, self.frame, self.rho_out)
         self.rho_in = self._compute_forces()
         self._phi_initial = self.phi
         self._add_row(wall_time(), force=True)
@@ -192,7 +211,7 @@ class FBRun(Stepper):
         self.rho_out, self.rho_in = float(attrs["rho_out"]), float(attrs["rho_in"])
         self.iteration, self._phi_initial = int(attrs["iteration"]), float(attrs["phi_initial"])
         self.history = self._history(history, attrs["history_stride"])
-        self.nb = _Neighbours(self.positions, self.nominal, self.box, self.rho_out)
+        self.nb = _Neighbours(self.positions, self.nominal, self.frame, self.rho_out)
         self.nb.rebuilds = int(attrs["neighbour_rebuilds"])
 
     def state(self):
@@ -210,7 +229,9 @@ class FBRun(Stepper):
 
     def step(self, wall_time) -> str | None:
         prefactor = FORCE_SCALING / 2.0 * self.rho_out * self.rho_out
-        self.nb.max_drift = kernels.move(self.positions, self.nominal, self.box, self.forces, prefactor, self.nb.drift)
+        self.nb.max_drift = kernels.move(self.positions, self.nominal, self.frame.lengths, self.frame.periodic,
+                                         self.walls, self.has_walls, self.rho_in, self.forces, prefactor,
+                                         self.nb.drift)
         self.rho_in = self._compute_forces()
         self.rho_out = _shrink(self.rho_out, self.rho_in, self.rho_out0, self.rate, self.phi_nominal, self.dim)
         self.iteration += 1
@@ -254,7 +275,7 @@ class FBRun(Stepper):
             metadata["seed"] = self.input.metadata["seed"]
         if "size_distribution" in self.input.metadata:  # the seed's distribution and sample descriptors
             metadata["size_distribution"] = self.input.metadata["size_distribution"]
-        result = Packing(self.positions, self.nominal * self.rho_in, self.box, metadata)
+        result = Packing(self.positions, self.nominal * self.rho_in, self.input.box, metadata, self.input.container)
         result.validate(what="FB result")
         return result
 
@@ -275,11 +296,13 @@ def run_fb(
     Parameters
     ----------
     packing : Packing
-        Start configuration. Its relative diameters are the nominal sizes; its box is kept. Overlaps are allowed.
+        Start configuration. Its relative diameters are the nominal sizes; its box or container is kept (in a
+        container every centre must lie inside the walls, as a Poisson packing's do). Overlaps are allowed.
     rate : float
         Contraction rate gamma (dimensionless, per iteration), 0 < gamma < 1.
     phi_nominal : float, optional
-        Nominal density: the nominal diameters are scaled to fill this fraction of the box. ``None`` (default) uses
+        Nominal density: the nominal diameters are scaled to fill this fraction of the box (of the container's
+        volume, inside its walls). ``None`` (default) uses
         the paper's rule :func:`nominal_density_for_rate` (d = 3 only).
     max_iterations : int, optional
         Stop after this many iterations in all (counting those before a resume); the result is then unfinished and
@@ -331,6 +354,10 @@ def run_fb(
         "box": packing.box,
         "sigma": packing.polydispersity,
     }
+    if not packing.container.is_periodic_cube:  # (the periodic cube keeps its parameters and fingerprint as before)
+        parameters.update(box=None, container=packing.container.spec)
     budget_free = {k: v for k, v in parameters.items() if k not in ("max_iterations", "max_wall_time")}
+    if not packing.container.is_periodic_cube:
+        budget_free["frame"] = packing.container.to_dict()
     run = FBRun(packing, rate, phi_nominal, max_iterations, parameters)
     return drive(run, options, fingerprint(packing, CHECKPOINT_KIND, budget_free))
