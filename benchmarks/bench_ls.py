@@ -447,6 +447,7 @@ def count_case(n: int, dist: str, rate: float = RATE, exact: bool = False) -> di
     pair_sum = 2.0 * len(d) * np.sum(d**2) + 2.0 * d.sum() ** 2  # sum over ordered pairs of (D_i + D_j)^2
     small_sum = 2.0 * len(small) * np.sum(small**2) + 2.0 * small.sum() ** 2
     return {"n": n, "dist": dist, "exact": exact, "phi": r.packing.phi, "collisions": c["collisions"],
+            "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
             "events": c["events"], "stats": {key: v for key, v in c.items() if isinstance(v, (int, float))},
             "cpu_counting": cpu, "d_ratio": dmax / dmin, "large_from": big / dmin,
             "spheres_per_class": counts.tolist(), "share_estimate": share_by_class.tolist(),
@@ -513,6 +514,29 @@ def print_counts(t: dict, c: dict, mono_rate: float, mono_cpp: float) -> None:
                   f"({how})", flush=True)
 
 
+def counts_table(path: str) -> None:
+    """The Markdown table of docs/algorithms.md §7.4 from the JSON lines of ``counts --out``."""
+    print("| distribution | d_max/d_min | cells per side | rate / mono | collisions per sphere / mono | time / mono | "
+          "peak MB | lost-partner re-predictions per collision | skin exits per collision | spheres scanned per "
+          "skin exit | pair tests per collision: own, lost partner, skin, window starts, total (est.) | mean list "
+          "small / large | collisions with a large sphere (est.) |")
+    print("|" + "---|" * 13)
+    for line in open(path).read().splitlines():
+        r = json.loads(line)
+        t, c = r["timed"], r["counted"]
+        f = count_figures(c)
+        n = t["n"]
+        cpp = t["collisions"] / n / (r["mono_collisions"] / n)
+        rate = t["per_s"] / r["mono_per_s"]
+        lists = [x for x, q in zip(f["lists"], c["spheres_per_class"]) if q]
+        grid = "/".join(sorted(c["cells_per_side"], key=int, reverse=True))
+        large = "–" if f["large"] != f["large"] else f"{f['large']:.2f}"
+        print(f"| {c['dist']} | {c['d_ratio']:.1f} | {grid} | {rate:.3f} | {cpp:.2f} | {cpp / rate:.2f} | "
+              f"{t['peak_mb']:.0f} | {f['moves']:.3f} | {f['skin']:.4f} | {f['scan_per_skin']:.0f} | "
+              f"{f['tests_coll']:.1f}, {f['tests_move']:.1f}, {f['tests_skin']:.2f}, {f['tests_init']:.2f}, "
+              f"{f['tests']:.1f} | {lists[0]:.1f} / {lists[-1]:.1f} | {large} |")
+
+
 def run_count_case(n: int, dist: str, exact: bool = False) -> dict:
     out = subprocess.run([sys.executable, __file__, "count-case", "--n", str(n), "--dist", dist]
                          + (["--exact"] if exact else []),
@@ -521,9 +545,10 @@ def run_count_case(n: int, dist: str, exact: bool = False) -> dict:
 
 
 def counts(n: int, dists, repeats: int, out: str | None, jobs: int, exact: bool) -> None:
-    """Issue 47: per distribution, the timed run (best of ``repeats``, each in a fresh process; rates against the
-    first distribution's of this invocation) and the counting run, ``jobs`` processes at a time (each in a
-    low-priority session of its own); all figures as JSON lines to ``out``."""
+    """Issue 47: per distribution, the timed run (``repeats`` times, each in a fresh process) and the counting run,
+    ``jobs`` processes at a time (each in a low-priority session of its own); the rate is the best of the timed runs
+    and the sampled one (not an ``exact`` one), against the first distribution's of this invocation; all figures as
+    JSON lines to ``out``."""
     from concurrent.futures import ThreadPoolExecutor
 
     print(f"load average at start: {os.getloadavg()}", flush=True)
@@ -538,9 +563,18 @@ def counts(n: int, dists, repeats: int, out: str | None, jobs: int, exact: bool)
             print(_line("run", b), flush=True)
             if dist not in best or b["per_s"] > best[dist]["per_s"]:
                 best[dist] = b
+        counted = {dist: f.result() for dist, f in counted.items()}
+        for dist, c in counted.items():
+            # the sampled run is the same LS run (a few numpy reductions per kernel call): a further repeat
+            if not c["exact"] and (dist not in best or c["collisions"] / c["cpu_counting"] > best[dist]["per_s"]):
+                best[dist] = {"n": n, "dist": dist, "rate": RATE, "phi": c["phi"], "stop": c["stats"]["stop_reason"]
+                              if "stop_reason" in c["stats"] else "", "collisions": c["collisions"],
+                              "wall": float("nan"), "cpu": c["cpu_counting"],
+                              "per_s": c["collisions"] / c["cpu_counting"], "d_ratio": c["d_ratio"],
+                              "peak_mb": c["peak_mb"], "from_sampled_run": True}
         mono = best[dists[0]]
         for dist in dists:
-            c = counted[dist].result()
+            c = counted[dist]
             print_counts(best[dist], c, mono["per_s"], mono["collisions"] / mono["n"])
             if out:
                 with open(out, "a") as fh:
@@ -558,6 +592,9 @@ def scale(sizes, max_wall: float) -> None:
 
 
 def main() -> None:
+    if len(sys.argv) == 3 and sys.argv[1] == "counts-table":
+        counts_table(sys.argv[2])
+        return
     if len(sys.argv) > 1 and sys.argv[1] in ("case", "count-case", "counts", "before-after", "wide", "scale"):
         ap = argparse.ArgumentParser(description="issue 35 modes (see the module docstring)")
         ap.add_argument("mode")

@@ -10,8 +10,9 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 
 * LS: ``LS_BASE + LS_AT_1E2 (1e-2 / gamma)^LS_EXPONENT`` collisions per particle from a Poisson start to
   p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS), both for
-  equal spheres; a size distribution multiplies the LS and MLS time by its :func:`distribution_factor`
-  ``1 + DISTRIBUTION_COEFFICIENT (W - 1)``, W its :func:`pair_load` (1 for equal spheres; docs/algorithms.md §7.4).
+  equal spheres; a size distribution divides that speed by its :func:`distribution_factor`
+  ``1 + DISTRIBUTION_COEFFICIENT (W - 1)``, W its :func:`pair_load` (1 for equal spheres), and keeps the collisions
+  per particle of equal spheres (docs/algorithms.md §7.4).
 * MLS: the LS collisions of every rate of its ladder (:mod:`spherejam.core.rate_ladder`), times
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
@@ -49,10 +50,10 @@ LS_EXPONENT = 0.92
 #: Event-driven collisions per CPU second at N = 1000, and its decrease with N (cache misses).
 COLLISIONS_PER_SECOND = 9.5e5
 SPEED_EXPONENT = -0.05
-#: Time of an LS or MLS run of a size distribution relative to equal spheres (same N, same rates):
-#: 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load (fitted to benchmarks/bench_ls.py counts, docs/algorithms.md
-#: §7.4).
-DISTRIBUTION_COEFFICIENT = 0.2
+#: Slow-down of the event-driven engine (LS, MLS) for a size distribution: equal spheres' collisions per CPU second
+#: divided by 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load; fitted to the bidisperse rows of
+#: `benchmarks/bench_ls.py counts` and checked on the others (benchmarks/cost_fit.py, docs/algorithms.md §7.4).
+DISTRIBUTION_COEFFICIENT = 0.38
 #: The Verlet skin of the event-driven engine in mean diameters (engines.event_driven.ListOptions.skin_fraction),
 #: part of a neighbour list's radius in pair_load.
 LIST_SKIN = 0.2
@@ -142,8 +143,11 @@ def pair_load(diameters) -> float:
 
 
 def distribution_factor(load: float = 1.0) -> float:
-    """Time of an LS or MLS run relative to equal spheres at the same N and rates, from the size distribution's
-    :func:`pair_load` W: 1 + DISTRIBUTION_COEFFICIENT (W - 1) (1 for equal spheres)."""
+    """Slow-down of the event-driven engine for a size distribution of :func:`pair_load` W: equal spheres'
+    collisions per CPU second over the distribution's, 1 + DISTRIBUTION_COEFFICIENT (W - 1) (1 for equal spheres).
+
+    The LS and MLS estimates keep equal spheres' collisions per particle: measured from phi = 0.58 at gamma = 1e-2,
+    wide mixtures need 0.4-1.05 of them (docs/algorithms.md §7.4), so for them the estimate errs long."""
     load = _positive("load", load)
     return 1.0 + DISTRIBUTION_COEFFICIENT * max(load - 1.0, 0.0)
 
