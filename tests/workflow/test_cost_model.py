@@ -261,8 +261,7 @@ PSD_ROWS = {
 #: CPU-minutes, 1.41 x the mono row's 9.0 (below N = 10^3 the MLS size factor is held at its N = 10^3 value;
 #: docs/algorithms.md §7.4). Strict: the test fails if one of them comes within 30 %.
 PSD_MISSED = {"mono300": "the model by N alone: 12.7 against 9.0 CPU-min at N = 300",
-              "gauss01": "the model by N alone (mono at N = 300: +41 %), and gauss01 ran 4 % below mono",
-              "bi2": "the model by N alone (mono at N = 300: +41 %); relative to mono the estimate is 0.93 x"}
+              "gauss01": "the model by N alone (mono at N = 300: +41 %), and gauss01 ran 4 % below mono"}
 def _bidisperse_load(ratio: float, n: int = 1000) -> float:
     import numpy as np
 

@@ -53,7 +53,7 @@ SPEED_EXPONENT = -0.05
 #: Slow-down of the event-driven engine (LS, MLS) for a size distribution: equal spheres' collisions per CPU second
 #: divided by 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load; fitted to the bidisperse rows of
 #: `benchmarks/bench_ls.py counts` and checked on the others (benchmarks/cost_fit.py, docs/algorithms.md §7.4).
-DISTRIBUTION_COEFFICIENT = 0.38
+DISTRIBUTION_COEFFICIENT = 0.33
 #: The Verlet skin of the event-driven engine in mean diameters (engines.event_driven.ListOptions.skin_fraction),
 #: part of a neighbour list's radius in pair_load.
 LIST_SKIN = 0.2
