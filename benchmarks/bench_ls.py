@@ -19,6 +19,13 @@ Issue 35 (any box, any size ratio), each case in a fresh process (so its peak me
     python benchmarks/bench_ls.py wide [--baseline-src ...]   # N = 1e4: mono, 1:1.4, 1:3, 1:10, log-normal 0.5
     python benchmarks/bench_ls.py scale --sizes 100000 1000000 --max-wall 900   # sigma 0.3, gamma = 1
 
+Issue 47 (where the time goes at wide size ratios; docs/algorithms.md §7.4), the counts of each distribution:
+
+    python benchmarks/bench_ls.py counts --n 10000 --repeats 0 --jobs 6 --out n10000.jsonl
+    python benchmarks/bench_ls.py counts --n 1000 --extra --repeats 3 --jobs 3 --out n1000.jsonl
+    python benchmarks/bench_ls.py counts-table n10000.jsonl        # the Markdown table of the docs
+    python benchmarks/bench_ls.py counts --exact ...                # per-event counts (a copy of the event loop)
+
 ``before-after`` runs each case alternately with the baseline's package and this one (``--repeats`` times) and prints
 the ratio of collisions per CPU second (each process's own CPU time: the machine is shared); ``wide`` prints each
 distribution's rate against the monodisperse one of the same run, the time to jam and the peak memory. Bidisperse

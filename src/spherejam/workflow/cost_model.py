@@ -147,7 +147,7 @@ def distribution_factor(load: float = 1.0) -> float:
     collisions per CPU second over the distribution's, 1 + DISTRIBUTION_COEFFICIENT (W - 1) (1 for equal spheres).
 
     The LS and MLS estimates keep equal spheres' collisions per particle: measured from phi = 0.58 at gamma = 1e-2,
-    wide mixtures need 0.4-1.05 of them (docs/algorithms.md §7.4), so for them the estimate errs long."""
+    wide mixtures needed 0.37-1.05 of them (docs/algorithms.md §7.4), so for them the estimate errs long."""
     load = _positive("load", load)
     return 1.0 + DISTRIBUTION_COEFFICIENT * max(load - 1.0, 0.0)
 

@@ -386,6 +386,7 @@ class Experiment:
 
     def __init__(self, config: dict[str, Any]):
         self.config = config
+        self._pair_loads: dict[tuple[str, int], float] = {}  # pair_load's cache
         try:
             results = config.get("results", "results")
             if not isinstance(results, str) or not results.strip():
@@ -550,7 +551,7 @@ class Experiment:
         """The cost model's pair load W of distribution ``key`` at N spheres
         (:func:`spherejam.workflow.cost_model.pair_load`), from one draw of N diameters (seed 0: the expected sample
         at that N; a packing's own draw differs by its seed). Computed once per (key, N)."""
-        cache = self.__dict__.setdefault("_pair_loads", {})
+        cache = self._pair_loads
         if (key, n) not in cache:
             import numpy as np
 
