@@ -19,7 +19,7 @@ rule ls:
     benchmark:
         PATHS.benchmark("ls")
     resources:
-        **job_resources("ls", EXP.size_of),
+        **job_resources("ls", EXP.size_of, load=EXP.load_of),
     shell:
         "spherejam ls {input} --rate {wildcards.rate} --p-max {params.p_max} --seed {params.seed}"
         " --checkpoint {params.checkpoint} --discard-stale-checkpoint -o {output} > {log} 2>&1"

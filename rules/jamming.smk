@@ -22,6 +22,6 @@ rule mls:
     benchmark:
         PATHS.benchmark("mls")
     resources:
-        **job_resources("mls", EXP.size_of, lambda w: EXP.mls_ladder),
+        **job_resources("mls", EXP.size_of, lambda w: EXP.mls_ladder, load=EXP.load_of),
     shell:
         mls_command("{params.initial_rate}", "{params.decrease_factor}", "{params.final_rate}")

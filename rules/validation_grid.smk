@@ -22,6 +22,6 @@ rule mls_grid:
     benchmark:
         PATHS.benchmark("mls_grid")
     resources:
-        **job_resources("mls", EXP.size_of, lambda w: GridRun.from_wildcards(w).ladder),
+        **job_resources("mls", EXP.size_of, lambda w: GridRun.from_wildcards(w).ladder, load=EXP.load_of),
     shell:
         mls_command("{wildcards.g0}", "{wildcards.factor}", "{wildcards.gf}")

@@ -235,3 +235,115 @@ def test_cost_command_prints_the_plan(tmp_path, capsys):
         assert main(["cost", str(tmp_path / bad)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and bad in err[0] and needle in err[0]
+
+
+# --- the size distribution's factor (issue 47, docs/algorithms.md §7.5) ------------------------------------------
+#: Slow-down of LS against equal spheres (mono's collisions per CPU second / the mixture's, best of 3 runs each)
+#: of bidisperse mixtures 30 % small by volume, N = 10^3, gamma = 1e-2 from phi = 0.58 to p = 1e12
+#: (`benchmarks/bench_ls.py counts --n 1000 --extra --repeats 3`, 2026-12-04; docs/algorithms.md §7.5).
+#: Size ratio -> slow-down.
+MEASURED_SLOWDOWN = {1.4: 1.048, 2.0: 1.211, 3.0: 1.557, 4.0: 2.016, 5.0: 2.451, 10.0: 8.171}
+
+#: docs/psd.md §8: row -> (spec, N, recorded CPU minutes of its `spherejam rcp` call: 5 LS + 5 FB fast packings, each
+#: then MLS and CALiPPSO; measured on 2026-12-02 with the code of that day, commit a47c0a6).
+PSD_ROWS = {
+    "mono600": ("lognormal:sigma=0", 600, 26.4),
+    "powder": ("table:examples/powder.csv", 600, 32.2),
+    "bi14": ("bidisperse:ratio=1.4,small=0.5,by=number", 600, 22.1),
+    "mono300": ("lognormal:sigma=0", 300, 9.0),
+    "bi2": ("bidisperse:ratio=2,small=0.3,by=volume", 300, 11.3),
+    "bi4": ("bidisperse:ratio=4,small=0.3,by=volume", 300, 30.5),
+    "gauss01": ("gaussian:delta=0.1", 300, 8.6),
+    "gauss02": ("gaussian:delta=0.2", 300, 11.9),
+    "uniform2": ("uniform:ratio=2", 300, 10.4),
+}
+#: Rows the model prices outside +-30 % whatever the distribution: at N = 300 it prices equal spheres at 12.7
+#: CPU-minutes, 1.41 x the mono row's 9.0 (below N = 10^3 the MLS size factor is held at its N = 10^3 value;
+#: docs/algorithms.md §7.5). Strict: the test fails if one of them comes within 30 %.
+PSD_MISSED = {"mono300": "the model by N alone: 12.7 against 9.0 CPU-min at N = 300",
+              "gauss01": "the model by N alone (mono at N = 300: +41 %), and gauss01 ran 4 % below mono"}
+def _bidisperse_load(ratio: float, n: int = 1000) -> float:
+    import numpy as np
+
+    from spherejam.core.size_distribution import parse
+
+    d = parse(f"bidisperse:ratio={ratio},small=0.3,by=volume").draw(n, np.random.default_rng(0))
+    return cr.pair_load(d.tolist())
+
+
+def test_distribution_factor_is_one_for_equal_spheres():
+    assert cr.pair_load([0.7] * 50) == pytest.approx(1.0, abs=1e-12)
+    assert cr.distribution_factor(1.0) == 1.0
+    for stage, kw in (("ls", {"rate": 1e-2}), ("mls", {})):
+        assert cr.cpu_seconds(stage, 10000, load=1.0, **kw) == cr.cpu_seconds(stage, 10000, **kw)
+    # a monodisperse config's plan and time limits are those of the model by N alone
+    import yaml
+
+    from spherejam.workflow.experiment import Experiment
+
+    root = Path(__file__).resolve().parents[2]
+    config = yaml.safe_load((root / "config" / "config.yaml").read_text())
+    config.update(sigmas=[0.0], validation_grid={"enabled": False})
+    exp = Experiment(config)
+    assert exp.pair_load("sigma0", exp.largest_n) == pytest.approx(1.0, abs=1e-12)
+    [table] = cr.plan(config).values()
+    n = exp.largest_n
+    assert table["mls"]["cpu_hours"] == pytest.approx(
+        len(exp.runs()) * cr.cpu_seconds("mls", n, **exp.mls_ladder) / 3600, rel=1e-12)
+    assert cr.pair_load([1.0, 1.0, 2.0]) > 1.0
+    with pytest.raises(InputError, match="^diameters="):
+        cr.pair_load([1.0, 0.0])
+    with pytest.raises(InputError, match="^load="):
+        cr.distribution_factor(0.0)
+
+
+def test_distribution_factor_grows_with_the_size_ratio_as_measured():
+    """The factor against the measured LS slow-down (bench_ls.py counts, N = 10^3, 30 % small by volume): it grows
+    with the size ratio, as the measured slow-downs do, and lies within 30 % of each."""
+    ratios = sorted(MEASURED_SLOWDOWN)
+    assert [MEASURED_SLOWDOWN[r] for r in ratios] == sorted(MEASURED_SLOWDOWN.values())
+    loads = [_bidisperse_load(r) for r in ratios]
+    assert loads == sorted(loads) and loads[0] > 1.0
+    factors = [cr.distribution_factor(w) for w in loads]
+    assert factors == sorted(factors) and len(set(factors)) == len(factors)
+    for ratio, load in zip(ratios, loads):
+        measured = MEASURED_SLOWDOWN[ratio]
+        assert measured / 1.3 < cr.distribution_factor(load) < measured * 1.3, (ratio, load, measured)
+
+
+def _psd_row_minutes(spec: str, n: int) -> float:
+    import yaml
+
+    root = Path(__file__).resolve().parents[2]
+    config = yaml.safe_load((root / "config" / "psd.yaml").read_text())
+    config.update(distributions={"row": spec}, n=n, replicas=1, results="unused")
+    [table] = cr.plan(config).values()
+    return 60.0 * sum(row["cpu_hours"] for row in table.values())
+
+
+@pytest.mark.parametrize("row", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=PSD_MISSED[r]))
+                                 if r in PSD_MISSED else r for r in PSD_ROWS])
+def test_psd_acceptance_rows_are_priced_within_30_percent(row, monkeypatch):
+    """docs/psd.md §8: each row's recorded CPU minutes (one `spherejam rcp` call: 5 LS + 5 FB packings, each then
+    MLS and CALiPPSO) against the cost model's estimate of that call."""
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])  # the powder row's table file is relative to the repository
+    spec, n, measured = PSD_ROWS[row]
+    estimate = _psd_row_minutes(spec, n)
+    assert measured / 1.3 < estimate < measured * 1.3, (row, estimate, measured)
+
+
+#: The row whose cost relative to mono the model misses by more than 30 % (strict: fails if it comes within).
+PSD_RELATIVE_MISSED = {"bi4": "cost 3.4 x the mono row at N = 300, the LS slow-down at 1:4 is 2.0 x (its MLS and "
+                              "CALiPPSO jobs were not timed apart)"}
+
+
+@pytest.mark.parametrize("row", [pytest.param(r, marks=pytest.mark.xfail(strict=True, reason=PSD_RELATIVE_MISSED[r]))
+                                 if r in PSD_RELATIVE_MISSED else r for r in PSD_ROWS if not r.startswith("mono")])
+def test_psd_acceptance_rows_relative_to_mono_within_30_percent(row, monkeypatch):
+    """The distribution's part alone: each row's cost relative to the mono row of the same N, measured and
+    estimated (the N-part of the model cancels)."""
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])
+    spec, n, measured = PSD_ROWS[row]
+    mono_spec, _, mono_measured = PSD_ROWS[f"mono{n}"]
+    estimated = _psd_row_minutes(spec, n) / _psd_row_minutes(mono_spec, n)
+    assert measured / mono_measured / 1.3 < estimated < measured / mono_measured * 1.3, (row, estimated)

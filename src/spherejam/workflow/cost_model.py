@@ -9,7 +9,10 @@ The expected CPU seconds of one job are start-up plus work / speed, per stage (t
 calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 
 * LS: ``LS_BASE + LS_AT_1E2 (1e-2 / gamma)^LS_EXPONENT`` collisions per particle from a Poisson start to
-  p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS).
+  p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS), both for
+  equal spheres; a size distribution divides that speed by its :func:`distribution_factor`
+  ``1 + DISTRIBUTION_COEFFICIENT (W - 1)``, W its :func:`pair_load` (1 for equal spheres), and keeps the collisions
+  per particle of equal spheres (docs/algorithms.md §7.5).
 * MLS: the LS collisions of every rate of its ladder (:mod:`spherejam.core.rate_ladder`), times
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
@@ -47,6 +50,13 @@ LS_EXPONENT = 0.92
 #: Event-driven collisions per CPU second at N = 1000, and its decrease with N (cache misses).
 COLLISIONS_PER_SECOND = 9.5e5
 SPEED_EXPONENT = -0.05
+#: Slow-down of the event-driven engine (LS, MLS) for a size distribution: equal spheres' collisions per CPU second
+#: divided by 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load; fitted to the bidisperse rows of
+#: `benchmarks/bench_ls.py counts` and checked on the others (benchmarks/cost_fit.py, docs/algorithms.md §7.5).
+DISTRIBUTION_COEFFICIENT = 0.33
+#: The Verlet skin of the event-driven engine in mean diameters (engines.event_driven.ListOptions.skin_fraction),
+#: part of a neighbour list's radius in pair_load.
+LIST_SKIN = 0.2
 #: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (docs/cluster.md, 'Cost model').
 MLS_PHASE_FRACTION = 0.5
 #: Growth of the MLS collisions per particle with N above 1000: (N / 1000)^MLS_SIZE_EXPONENT.
@@ -111,6 +121,37 @@ def collisions_per_second(n: int) -> float:
     return COLLISIONS_PER_SECOND * (max(n, 1000) / 1000.0) ** SPEED_EXPONENT
 
 
+def pair_load(diameters) -> float:
+    """W: the mean neighbour-list length of a colliding sphere, relative to equal spheres (1 for equal spheres).
+
+    The event-driven engine re-predicts a sphere's whole Verlet list at each of its collisions, so its work per
+    collision follows the lists of the spheres that collide. A sphere of diameter D (number mean 1) takes part in
+    collisions in proportion to its surface D^2 and lists the centres within (D + 1)/2 + LIST_SKIN, a volume
+    ~ ((D + 1)/2 + LIST_SKIN)^3:
+
+        W = <D^2 ((D + 1)/2 + s)^3> / (<D^2> (1 + s)^3),   s = LIST_SKIN.
+
+    ``diameters`` is a sample of the distribution (any scale; a plain sequence, no numpy needed). At 1:10, 30 % small
+    by volume, W ~ 20; a log-normal sigma = 0.5, ~ 2.2 (docs/algorithms.md §7.5)."""
+    values = [float(d) for d in diameters]
+    require(len(values) > 0 and all(math.isfinite(d) and d > 0 for d in values), "diameters", len(values),
+            "must be a non-empty sequence of finite numbers > 0")
+    mean = math.fsum(values) / len(values)
+    weight = math.fsum((d / mean) ** 2 for d in values)
+    volume = math.fsum((d / mean) ** 2 * (0.5 * (d / mean + 1.0) + LIST_SKIN) ** 3 for d in values)
+    return volume / (weight * (1.0 + LIST_SKIN) ** 3)
+
+
+def distribution_factor(load: float = 1.0) -> float:
+    """Slow-down of the event-driven engine for a size distribution of :func:`pair_load` W: equal spheres'
+    collisions per CPU second over the distribution's, 1 + DISTRIBUTION_COEFFICIENT (W - 1) (1 for equal spheres).
+
+    The LS and MLS estimates keep equal spheres' collisions per particle: measured from phi = 0.58 at gamma = 1e-2,
+    wide mixtures needed 0.37-1.05 of them (docs/algorithms.md §7.5), so for them the estimate errs long."""
+    load = _positive("load", load)
+    return 1.0 + DISTRIBUTION_COEFFICIENT * max(load - 1.0, 0.0)
+
+
 def ls_collisions_per_particle(rate: float) -> float:
     """Collisions per particle of an LS compression at rate gamma from a Poisson start to p = 1e12."""
     rate = _positive("rate", rate)
@@ -151,22 +192,26 @@ def calippso_lps(n: int) -> float:
 
 
 def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: float = 10.0,
-                decrease_factor: float = 2.0, final_rate: float = 1e-4) -> float:
+                decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0) -> float:
     """Expected CPU seconds of the work of one job (no start-up, no margin).
 
     ``rate`` is the generation rate gamma of an ``ls`` or ``fb`` job (required there, ignored elsewhere);
-    ``initial_rate``, ``decrease_factor`` and ``final_rate`` describe an ``mls`` job.
+    ``initial_rate``, ``decrease_factor`` and ``final_rate`` describe an ``mls`` job; ``load`` is the size
+    distribution's :func:`pair_load` W (1: equal spheres), which scales the event-driven stages (ls, mls) by
+    :func:`distribution_factor`.
     """
     _check_stage(stage)
     n = _check_n(n)
+    factor = distribution_factor(load)
     if stage in ("ls", "fb"):
         require(rate is not None, "rate", rate, f"is required for stage {stage!r}")
     if stage == "ls":
-        return n * ls_collisions_per_particle(rate) / collisions_per_second(n)
+        return n * ls_collisions_per_particle(rate) / collisions_per_second(n) * factor
     if stage == "fb":
         return fb_iterations(rate) * FB_SECONDS * n
     if stage == "mls":
-        return n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
+        return (n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
+                * factor)
     if stage == "calippso":
         return calippso_lps(n) * CALIPPSO_LP_SECONDS * (n / 1000.0) ** CALIPPSO_EXPONENT
     if stage == "analyze":
@@ -194,7 +239,7 @@ def _check_attempt(attempt) -> int:
 
 
 def runtime_minutes(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
-                    decrease_factor: float = 2.0, final_rate: float = 1e-4) -> int:
+                    decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0) -> int:
     """SLURM time limit of one job, minutes (Snakemake's ``runtime`` resource).
 
     ``attempt`` is Snakemake's attempt counter (1 on the first submission): the limit grows with it, so a job that
@@ -202,7 +247,7 @@ def runtime_minutes(stage: str, n: int, rate: float | None = None, attempt: int 
     """
     attempt = _check_attempt(attempt)
     work = cpu_seconds(stage, n, rate, initial_rate=initial_rate, decrease_factor=decrease_factor,
-                       final_rate=final_rate)
+                       final_rate=final_rate, load=load)
     minutes = math.ceil((STARTUP_SECONDS + SAFETY * work) / 60.0)
     minutes = max(minutes, FLOOR_MINUTES[stage]) * attempt
     return int(min(minutes, max_runtime_minutes()))
@@ -230,9 +275,9 @@ def cpus_per_task(stage: str, threads: int = 1) -> int:
 
 
 def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
-             decrease_factor: float = 2.0, final_rate: float = 1e-4) -> JobEstimate:
+             decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0) -> JobEstimate:
     """All resources of one job at once (see :func:`runtime_minutes`, :func:`mem_mb`, :func:`cpus_per_task`)."""
-    kw = {"initial_rate": initial_rate, "decrease_factor": decrease_factor, "final_rate": final_rate}
+    kw = {"initial_rate": initial_rate, "decrease_factor": decrease_factor, "final_rate": final_rate, "load": load}
     return JobEstimate(
         runtime=runtime_minutes(stage, n, rate, attempt, **kw),
         mem_mb=mem_mb(stage, n, attempt),
@@ -241,12 +286,13 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
     )
 
 
-def job_resources(stage: str, n, ladder=None, threads: int = 1) -> dict:
+def job_resources(stage: str, n, ladder=None, threads: int = 1, load=None) -> dict:
     """The ``resources:`` of a workflow rule: time limit and memory as functions of a job's wildcards and attempt,
     and its cores. ``n`` is the number of spheres N, or a function of the wildcards giving it (a ladder of N);
     ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
     ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard; ``threads`` are a
-    ``calippso`` job's cores (:func:`cpus_per_task`)."""
+    ``calippso`` job's cores (:func:`cpus_per_task`); ``load(wildcards)`` gives the job's size distribution's
+    :func:`pair_load` at its N (None: equal spheres)."""
     _check_stage(stage)
     if callable(n):
         size = n
@@ -258,7 +304,8 @@ def job_resources(stage: str, n, ladder=None, threads: int = 1) -> dict:
 
     def runtime(wildcards, attempt):
         rate = float(wildcards.rate) if stage in ("ls", "fb") else None
-        return runtime_minutes(stage, size(wildcards), rate, attempt, **(ladder(wildcards) if ladder else {}))
+        return runtime_minutes(stage, size(wildcards), rate, attempt, **(ladder(wildcards) if ladder else {}),
+                               load=load(wildcards) if load else 1.0)
 
     def memory(wildcards, attempt):
         return mem_mb(stage, size(wildcards), attempt)
@@ -282,13 +329,15 @@ def plan(config: dict) -> dict[int, dict[str, dict[str, float]]]:
     jobs: list[tuple[int, str, float | None, dict]] = []
     for run in exp.runs():
         n = exp.size(run)
-        jobs += [(n, "seed", None, {}), (n, run.protocol, run.rate, {}), (n, "mls", None, mls_kw)]
+        load = {"load": exp.pair_load(run.dist, n)}
+        jobs += [(n, "seed", None, {}), (n, run.protocol, run.rate, load), (n, "mls", None, {**mls_kw, **load})]
         if config.get("analysis", {}).get("enabled", False):
             jobs.append((n, "analyze", None, {}))
         if config.get("calippso", {}).get("enabled", False):
             jobs.append((n, "calippso", None, {}))
     for g in exp.grid_runs():
-        jobs.append((exp.size(g.source), "mls_grid", None, g.ladder))
+        n = exp.size(g.source)
+        jobs.append((n, "mls_grid", None, {**g.ladder, "load": exp.pair_load(g.source.dist, n)}))
     tables: dict[int, dict[str, dict[str, float]]] = {n: {} for n in exp.sizes}
     for n, label, rate, kw in jobs:
         stage = "mls" if label == "mls_grid" else label

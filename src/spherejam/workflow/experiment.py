@@ -386,6 +386,7 @@ class Experiment:
 
     def __init__(self, config: dict[str, Any]):
         self.config = config
+        self._pair_loads: dict[tuple[str, int], float] = {}  # pair_load's cache
         try:
             results = config.get("results", "results")
             if not isinstance(results, str) or not results.strip():
@@ -545,6 +546,25 @@ class Experiment:
         """The ``spherejam render`` label flag of Fig. 1: ``--sigma S`` for a ``sigmas`` run (else the sample's)."""
         sigma = self.figure1_run().sigma
         return f"--sigma {fmt(sigma)}" if math.isfinite(sigma) else ""
+
+    def pair_load(self, key: str, n: int) -> float:
+        """The cost model's pair load W of distribution ``key`` at N spheres
+        (:func:`spherejam.workflow.cost_model.pair_load`), from one draw of N diameters (seed 0: the expected sample
+        at that N; a packing's own draw differs by its seed). Computed once per (key, N)."""
+        cache = self._pair_loads
+        if (key, n) not in cache:
+            import numpy as np
+
+            from .cost_model import pair_load
+
+            model = self.distribution(key).model()
+            draw = model.draw(model.fixed_n or n, np.random.default_rng(0))
+            cache[key, n] = pair_load(draw.tolist())
+        return cache[key, n]
+
+    def load_of(self, wildcards) -> float:
+        """The pair load W of a job's distribution at its N, from its wildcards (a Snakemake resources function)."""
+        return self.pair_load(str(wildcards.dist), self.size_of(wildcards))
 
     def psd(self, wildcards) -> str:
         """The ``--psd`` spec of a seeding job, from its wildcards."""
