@@ -30,6 +30,7 @@ import numpy as np
 
 from ..core.atomic import atomic_output
 from ..core.errors import InputError, PackingFileError
+from ..core.input_paths import regular_file
 from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
 from ..engines.result import RunStats, stats_from_metadata
@@ -96,8 +97,7 @@ def _attrs(path: Path) -> dict[str, Any]:
     """The scalar attributes of a packing file (not its arrays: those were validated when written)."""
     import h5py
 
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    regular_file(path, "packing file", missing="no such file (the workflow should have produced it)")
     try:
         with h5py.File(path, "r") as f:
             a = dict(f.attrs)
@@ -161,8 +161,7 @@ def _mls_scalars(path: Path, prefix: str = "") -> dict[str, float]:
 
 
 def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    regular_file(path, "JSON file", missing="no such file (the workflow should have produced it)")
     try:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
@@ -313,7 +312,7 @@ def build_dataset(manifest_path: str | os.PathLike, sizes=None, dists=None):
     (N) or ``dists`` (distribution keys), the dataset of that part of it (:func:`merge_datasets` joins parts)."""
     import xarray as xr
 
-    manifest_path = Path(manifest_path)
+    manifest_path = regular_file(manifest_path, "manifest file")
     try:
         manifest = json.loads(manifest_path.read_text())
     except (OSError, ValueError) as exc:  # ValueError: bad JSON, or a binary file (UnicodeDecodeError)
@@ -567,11 +566,7 @@ def open_dataset(path: str | os.PathLike):
     """Load a results dataset fully into memory, with a clear error for a missing or foreign file."""
     import xarray as xr
 
-    path = Path(path)
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such dataset")
-    if path.is_dir():
-        raise PackingFileError(f"{path}: is a directory, not a dataset file")
+    path = regular_file(path, "dataset file", missing="no such dataset")
     _refuse_packing_file(path)
     try:
         with warnings.catch_warnings():  # the backends' warnings about foreign files come before our one line
