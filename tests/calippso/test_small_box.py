@@ -113,3 +113,54 @@ def test_small_box_packing_is_certified(make, largest_over_box):
     assert np.abs(net[~result.rattlers]).max() <= 1e-10
     assert worst_overlap_all_images(result.packing) <= 1e-10
     assert result.packing.phi >= start.phi - 1e-10
+
+
+# --- issue 49: "converged" only with a force network ------------------------------------------------------------
+
+
+def _bcc_two() -> "Packing":
+    from spherejam.core.packing import Packing
+
+    x = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]) + 0.1
+    return Packing(x, np.full(2, math.sqrt(3) / 2), 1.0, {"algorithm": "test"})
+
+
+def _spans_the_box() -> "Packing":
+    """The largest sphere as wide as the box (it touches its own images), two small spheres free."""
+    from spherejam.core.packing import Packing
+
+    x = np.array([[0.1, 0.1, 0.1], [0.6, 0.6, 0.6], [0.6, 0.6, 0.1]])
+    return Packing(x, np.array([0.999999, 0.15, 0.15]), 1.0, {"algorithm": "test"})
+
+
+@pytest.mark.parametrize("make, why", [(_bcc_two, ""), (_spans_the_box, "touches its own image")])
+def test_no_certificate_without_a_force_network(tmp_path, make, why):
+    """The LPs converge (nothing can inflate) but no contact among non-rattlers carries a force: not converged,
+    not isostatic, nothing certified, one line saying why; the CLI exits 1; with --require-convergence nothing is
+    written."""
+    from spherejam.calippso.run import run_calippso
+    from spherejam.cli import main
+    from spherejam.core.errors import SimulationError
+    from spherejam.core.packing_io import write_packing
+
+    result = run_calippso(make(), progress_interval=1e9)
+    assert result.stop_reason == "no_force_network" and not result.completed and not result.isostatic
+    assert result.summary()["converged"] == 0.0 and result.packing.metadata["counters"]["converged"] is False
+    with pytest.raises(SimulationError, match=f"no force network.*{why}.*nothing certified"):
+        run_calippso(make(), progress_interval=1e9, require_convergence=True)
+    write_packing(tmp_path / "in.h5", make())
+    code = main(["calippso", str(tmp_path / "in.h5"), "-o", str(tmp_path / "out.h5"), "-q"])
+    assert code == 1
+
+
+def test_the_dataset_never_holds_a_converged_row_without_forces():
+    from spherejam.workflow.dataset import _no_certificate_without_forces
+
+    old = {"calippso_converged": 1.0, "calippso_is_isostatic": 1.0, "calippso_n_contacts": 0.0,
+           "calippso_force_balance_residual": math.inf}
+    _no_certificate_without_forces(old)
+    assert old["calippso_converged"] == 0.0 and old["calippso_is_isostatic"] == 0.0
+    good = {"calippso_converged": 1.0, "calippso_is_isostatic": 1.0, "calippso_n_contacts": 300.0,
+            "calippso_force_balance_residual": 1e-13}
+    _no_certificate_without_forces(good)
+    assert good["calippso_converged"] == 1.0 and good["calippso_is_isostatic"] == 1.0

@@ -164,12 +164,27 @@ def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
     regular_file(path, "JSON file", missing="no such file (the workflow should have produced it)")
     try:
         data = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PackingFileError(f"{path}: corrupt JSON ({exc})") from None
-    flat = data.get("scalars", data)
+    flat = data.get("scalars", data) if isinstance(data, dict) else data
+    if not isinstance(flat, dict):
+        raise PackingFileError(f"{path}: a JSON {type(flat).__name__}; expected an object of the packing's scalars")
     if not prefix:  # an analysis file written before the rename
         flat = {RENAMED.get(k, k): v for k, v in flat.items()}
+    # every variable the dataset takes from the file is a number (null: not estimable); anything else would become
+    # NaN without a word. Other entries (paths, the packing's description, scans) are not read.
+    names = _structure_variables()
+    known = {k.removeprefix(prefix) for k in names if k.startswith(prefix)} if prefix else {
+        k for k in names if not k.startswith("calippso_")}
+    for key, value in flat.items():
+        if key in known and not (value is None or isinstance(value, (int, float, bool))):
+            raise PackingFileError(f"{path}: {key}={_short_json(value)}: must be a number (or null)")
     return {f"{prefix}{k}": _num(v) for k, v in flat.items() if isinstance(v, (int, float, bool)) or v is None}
+
+
+def _short_json(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], list[dict[str, float]]]:
@@ -182,8 +197,21 @@ def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], 
             row.update(_json_scalars(exp.path(run, "structure"), ""))
         if exp.config.get("calippso", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "calippso"), "calippso_"))
+            _no_certificate_without_forces(row)
         rows.append(row)
     return runs, rows
+
+
+def _no_certificate_without_forces(row: dict[str, float]) -> None:
+    """A row's CALiPPSO verdict by the run's own rule (:func:`~spherejam.calippso.run.has_force_network`): a
+    summary written before that rule, "converged" with no contact or an infinite force balance, is not certified."""
+    from ..calippso.run import has_force_network
+
+    if row.get("calippso_converged") == 1 and not has_force_network(row.get("calippso_n_contacts", math.nan),
+                                                                      row.get("calippso_force_balance_residual",
+                                                                              math.nan)):
+        row["calippso_converged"] = 0.0
+        row["calippso_is_isostatic"] = 0.0
 
 
 def collect_grid(exp: Experiment, part: Part | None = None) -> tuple[list[GridRun], list[dict[str, float]]]:
