@@ -35,7 +35,7 @@ from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex
 from .constraints import closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
-from .network import contact_network, initial_pin, near_gaps, repin
+from .network import balanced_forces, contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
 
@@ -388,6 +388,10 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
     lp, duals, fine_tuned, fine_inflation = _force_lp(run, cfg, fine_tune)
     contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, cfg.n,
                                                                         cfg.dim, cfg.zero_force)
+    if converged and not has_force_network(n_contacts, residual):  # a degenerate dual (a crystal): seek the forces
+        duals = balanced_forces(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n)
+        contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
+                                                                            cfg.n, cfg.dim, cfg.zero_force)
     pairs, forces, vectors, stable_pair = _contact_forces(lp, duals, contact, rattler)
     gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
                                 pair_keys(lp.pi, lp.pj, cfg.n)[stable_pair], cfg.n)

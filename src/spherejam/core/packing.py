@@ -175,8 +175,9 @@ class Packing:
         return dataclasses.replace(self, **changes)
 
     def scaled_to_contact(self) -> Packing:
-        """Diameters scaled by one factor so that the closest pair just touches (h_min = 1)."""
-        h = self.closest_pair()[2]
+        """Diameters scaled by one factor so that the closest pair just touches (h_min = 1); a sphere and its own
+        image (r = L) count as a pair, so that in a tiny box the largest sphere is at most as wide as the box."""
+        h = min(self.closest_pair()[2], self.box / float(self.diameters.max()))
         return self.replace(diameters=self.diameters * h)
 
     def __repr__(self) -> str:
