@@ -14,6 +14,7 @@ import pytest
 from spherejam.calippso.constraints import cutoff_rows, pair_keys, pair_vectors, pairs_in_cutoff
 from spherejam.calippso.run import run_calippso
 from spherejam.calippso.schedule import cutoff_and_bound
+from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming
 from spherejam.engines.lubachevsky_stillinger import run_ls
@@ -118,17 +119,13 @@ def test_small_box_packing_is_certified(make, largest_over_box):
 # --- issue 49: "converged" only with a force network ------------------------------------------------------------
 
 
-def _bcc_two() -> "Packing":
-    from spherejam.core.packing import Packing
-
+def _bcc_two() -> Packing:
     x = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]) + 0.1
     return Packing(x, np.full(2, math.sqrt(3) / 2), 1.0, {"algorithm": "test"})
 
 
-def _spans_the_box() -> "Packing":
+def _spans_the_box() -> Packing:
     """The largest sphere as wide as the box (it touches its own images), two small spheres free."""
-    from spherejam.core.packing import Packing
-
     x = np.array([[0.1, 0.1, 0.1], [0.6, 0.6, 0.6], [0.6, 0.6, 0.1]])
     return Packing(x, np.array([0.999999, 0.15, 0.15]), 1.0, {"algorithm": "test"})
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 
 from .errors import SpherejamError
 
@@ -63,6 +64,8 @@ def install(at_once: bool = False) -> dict:
     global _received, _at_once
     _received = None
     _at_once = at_once
+    if threading.current_thread() is not threading.main_thread():  # Python delivers signals to the main thread only
+        return {}
     return {sig: signal.signal(sig, _record) for sig in SIGNALS}
 
 
