@@ -17,11 +17,12 @@ from pathlib import Path
 import pytest
 
 from spherejam.cli import main
-from spherejam.workflow.archive import MANIFEST
 
 ROOT = Path(__file__).resolve().parents[2]
 SRC = str(ROOT / "src")
 REPRODUCTION = ROOT / "archive" / "reproduction"
+#: The manifest an archive holds (docs/robustness.md, "Replacing a folder").
+MANIFEST = "archive.json"
 
 
 def cli(*args):

@@ -296,6 +296,8 @@ class Discrete(SizeDistribution):
         w = np.asarray(self.weights)
         exact = w * n
         counts = np.floor(exact + 1e-9).astype(int)  # a whole N x_i stays whole through round-off
+        if counts.sum() > n:  # only if many classes sit just below a whole count
+            counts = np.floor(exact).astype(int)
         rest = int(n - counts.sum())
         if rest > 0:
             edges = np.cumsum(np.clip(exact - counts, 0.0, None))
@@ -542,8 +544,8 @@ def _file_source(path: Path) -> dict:
 
 
 #: Largest ratio of the largest to the smallest size in a table or list file. Sizes are in any unit and are used
-#: relative to the file's largest, so 1e-200 um or 1e300 nm work alike; a wider span has no packing (a sample needs
-#: a box several d_max wide, d_min/d_max is below double precision's reach by 1e100).
+#: relative to the file's largest, so 1e-200 um or 1e300 nm work alike. A wider span makes no packing: its box is
+#: several d_max wide, so the smallest spheres would be points, and D^3 of a span of 1e100 leaves double precision.
 MAX_FILE_RATIO = 1e6
 
 
