@@ -14,6 +14,7 @@ import pytest
 from spherejam.calippso.constraints import cutoff_rows, pair_keys, pair_vectors, pairs_in_cutoff
 from spherejam.calippso.run import run_calippso
 from spherejam.calippso.schedule import cutoff_and_bound
+from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming
 from spherejam.engines.lubachevsky_stillinger import run_ls
@@ -113,3 +114,63 @@ def test_small_box_packing_is_certified(make, largest_over_box):
     assert np.abs(net[~result.rattlers]).max() <= 1e-10
     assert worst_overlap_all_images(result.packing) <= 1e-10
     assert result.packing.phi >= start.phi - 1e-10
+
+
+# --- issue 49: "converged" only with a force network ------------------------------------------------------------
+
+
+def _bcc_two() -> Packing:
+    x = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]]) + 0.1
+    return Packing(x, np.full(2, math.sqrt(3) / 2), 1.0, {"algorithm": "test"})
+
+
+def _spans_the_box() -> Packing:
+    """The largest sphere as wide as the box (it touches its own images), two small spheres free."""
+    x = np.array([[0.1, 0.1, 0.1], [0.6, 0.6, 0.6], [0.6, 0.6, 0.1]])
+    return Packing(x, np.array([0.999999, 0.15, 0.15]), 1.0, {"algorithm": "test"})
+
+
+def test_a_crystal_s_degenerate_dual_still_gives_its_force_network():
+    """FCC and the N = 2 BCC are jammed at once, but the LP's dual at Gamma = 1 is degenerate and the solver's vertex
+    carried no force ("converged", 0 contacts, force balance inf). The forces come from the balance LP on the
+    touching rows: every contact of the crystal (12 per sphere in FCC; 8 images of the other sphere in BCC, as
+    `analyze` counts them), balanced to round-off."""
+    from packings import fcc_packing
+    from spherejam.calippso.run import run_calippso
+
+    for packing, contacts in ((fcc_packing(3), 108 * 6), (_bcc_two(), 8)):
+        result = run_calippso(packing, progress_interval=1e9)
+        assert result.completed and result.n_contacts == contacts and result.n_rattlers == 0
+        assert result.force_balance_residual < 1e-10
+        assert np.all(result.forces > 0.5) and np.all(result.forces < 2.0)  # every contact carries a force
+
+
+def test_no_certificate_when_the_largest_sphere_touches_its_own_image(tmp_path):
+    """The LPs converge (nothing can inflate) but only through a sphere's own image, which has no row: not converged,
+    not isostatic, nothing certified, one line saying why; the CLI exits 1; with --require-convergence it is an
+    error."""
+    from spherejam.calippso.run import run_calippso
+    from spherejam.cli import main
+    from spherejam.core.errors import SimulationError
+    from spherejam.core.packing_io import write_packing
+
+    result = run_calippso(_spans_the_box(), progress_interval=1e9)
+    assert result.stop_reason == "no_force_network" and not result.completed and not result.isostatic
+    assert result.summary()["converged"] == 0.0 and result.packing.metadata["counters"]["converged"] is False
+    with pytest.raises(SimulationError, match="no force network.*touches its own image.*nothing certified"):
+        run_calippso(_spans_the_box(), progress_interval=1e9, require_convergence=True)
+    write_packing(tmp_path / "in.h5", _spans_the_box())
+    assert main(["calippso", str(tmp_path / "in.h5"), "-o", str(tmp_path / "out.h5"), "-q"]) == 1
+
+
+def test_the_dataset_never_holds_a_converged_row_without_forces():
+    from spherejam.workflow.dataset import _no_certificate_without_forces
+
+    old = {"calippso_converged": 1.0, "calippso_is_isostatic": 1.0, "calippso_n_contacts": 0.0,
+           "calippso_force_balance_residual": math.inf}
+    _no_certificate_without_forces(old)
+    assert old["calippso_converged"] == 0.0 and old["calippso_is_isostatic"] == 0.0
+    good = {"calippso_converged": 1.0, "calippso_is_isostatic": 1.0, "calippso_n_contacts": 300.0,
+            "calippso_force_balance_residual": 1e-13}
+    _no_certificate_without_forces(good)
+    assert good["calippso_converged"] == 1.0 and good["calippso_is_isostatic"] == 1.0

@@ -82,13 +82,14 @@ def test_bidisperse_sample_has_exact_composition():
 
 
 def test_bidisperse_refuses_a_sample_without_one_of_its_sizes():
-    """1:10 with 30 % small spheres by volume has 0.23 % large spheres by number: none at N = 200, where the sample
-    would silently be equal spheres. The error says from which N both sizes are present."""
+    """1:10 with 30 % small spheres by volume has 0.23 % large spheres by number: 0.47 at N = 200, where a sample
+    could be equal spheres. The error says from which N both sizes are present in every sample."""
     dist = parse("bidisperse:ratio=10,small=0.3,by=volume")
-    with pytest.raises(InputError, match=r"at N = 200 the large spheres' number share 0.00233 rounds to no sphere.*"
-                                         r"use N >= 215"):
+    with pytest.raises(InputError, match=r"at N = 200 the large spheres' number share 0.00233 gives 0.466 spheres.*"
+                                         r"use N >= 430"):
         dist.draw(200, rng_for(0))
-    assert np.sum(dist.draw(215, rng_for(0), normalise=False) == 10.0) == 1
+    for seed in range(20):
+        assert np.sum(dist.draw(430, rng_for(seed), normalise=False) == 10.0) >= 1
     with pytest.raises(InputError, match="the small spheres' number share"):
         parse("bidisperse:ratio=2,small=0.001,by=number").draw(100, rng_for(0))
 
@@ -207,7 +208,7 @@ BAD_FILES = [
     ("table", "size,volume %\n1,50\n2,40\n", "volume sums to 90: must sum to 100"),
     ("table", "size,volume\n1,nan\n2,1\n", "line 2: volume='nan': must be a finite number"),
     ("table", "size,volume\n1,0.5\n2,abc\n", "line 3: volume='abc': must be a number"),
-    ("table", "size,volume\n2,0.5\n1,0.5\n", "line 3: size=1: sizes must increase"),
+    ("table", "size,volume\n2,0.3\n1,0.3\n3,0.4\n", "line 4: size=3: sizes must increase or decrease throughout"),
     ("table", "lower,upper,volume\n1,2,0.5\n3,2.5,0.5\n", "line 3: upper=2.5: must be > lower"),
     ("table", "lower,upper,volume\n1,2,0.5\n1.5,3,0.5\n", "lower=1.5: bins overlap"),
     ("table", "size,Q3\n1,0\n2,0.7\n3,0.6\n", "Q3=0.6: a cumulative fraction must not decrease"),
@@ -269,3 +270,121 @@ def test_predictions_flag_their_ranges():
     assert not p["desmond_weeks"].in_range  # delta = 0.64 > 0.4
     assert p["santos"].phi == pytest.approx(santos(_desc("powerlaw:exponent=-3,ratio=10").z, 0.64))
     assert "2014" in p["desmond_weeks"].citation
+
+
+# --- issue 49: unbiased discrete samples, specs that reproduce the draw, files in any unit and layout -------------
+
+
+def _equal_number_classes(tmp_path, k=1000, ratio=2.1e4):
+    sizes = np.geomspace(1.0, ratio, k)
+    p = tmp_path / "classes.csv"
+    p.write_text("size,number\n" + "".join(f"{float(d)!r},{1 / k!r}\n" for d in sizes))
+    return parse(f"table:{p}")
+
+
+def test_a_table_with_more_classes_than_n_gives_an_unbiased_sample(tmp_path):
+    """1000 equal-number classes spanning 2.1e4, N = 200: each sample is a stratified one over the whole range (the
+    rounding gave the 200 smallest classes, delta 0.557 and d_max/d_min 7.24 for every seed), the seeds differ, and
+    the classes' mean counts over seeds are N x_i."""
+    dist = _equal_number_classes(tmp_path)
+    pop = dist.descriptors()
+    assert pop.delta == pytest.approx(1.99, abs=0.01)
+    samples = [dist.draw(200, rng_for(seed)) for seed in range(200)]
+    for x in samples[:20]:
+        s = sample_descriptors(x)
+        assert s.delta == pytest.approx(pop.delta, rel=0.1)
+        assert s.size_ratio > 0.9 * pop.size_ratio
+    assert not np.array_equal(np.sort(samples[0]), np.sort(samples[1]))
+    counts = np.zeros(1000)
+    sizes = np.asarray(dist.sizes)  # relative to the largest, as the file's are held
+    for seed in range(200):
+        relative = dist.draw(200, rng_for(seed), normalise=False) / dist.source["largest_size"]
+        counts += np.bincount(np.searchsorted(sizes, relative * (1 - 1e-12)), minlength=1000)
+    assert counts.sum() == 200 * 200
+    # every class is drawn 200 * 0.2 = 40 times on average: the smallest and largest fifths alike
+    assert counts[:200].mean() == pytest.approx(40, rel=0.1) and counts[-200:].mean() == pytest.approx(40, rel=0.1)
+    pooled = sample_descriptors(np.concatenate(samples))
+    assert pooled.delta == pytest.approx(pop.delta, rel=0.05)
+
+
+def test_whole_class_counts_are_exact_and_use_no_random_number():
+    dist = parse("bidisperse:ratio=2,small=0.5,by=number")
+    rng = rng_for(4)
+    x = dist.draw(100, rng, normalise=False)
+    assert np.sum(x == 1.0) == 50
+    fresh = rng_for(4)
+    assert np.array_equal(x, fresh.permutation(np.repeat([1.0, 2.0], [50, 50])))
+
+
+@pytest.mark.parametrize("spec", ["gaussian:delta=0.1234567", "uniform:ratio=2.123456789",
+                                  "powerlaw:exponent=-2.7182818,ratio=10.0000001",
+                                  "bidisperse:ratio=1.4142135,small=0.3333333,by=volume", "lognormal:sigma=0.1234567"])
+def test_the_recorded_spec_reproduces_the_draw(spec):
+    dist = parse(spec)
+    again = parse(dist.spec)
+    assert again == dist
+    np.testing.assert_array_equal(dist.draw(300, rng_for(2)), again.draw(300, rng_for(2)))
+    recorded = poisson_packing(300, seed=2, psd=spec).metadata["size_distribution"]["spec"]
+    np.testing.assert_array_equal(poisson_packing(300, seed=2, psd=recorded).diameters,
+                                  poisson_packing(300, seed=2, psd=spec).diameters)
+    assert parse("gaussian:delta=0.2").spec == "gaussian:delta=0.2"  # short where short is exact
+
+
+@pytest.mark.parametrize("family, content, reference", [
+    ("table", "size,volume\n1e300,0.5\n2e300,0.5\n", "size,volume\n1,0.5\n2,0.5\n"),
+    ("table", "size,volume\n1e-300,0.5\n2e-300,0.5\n", "size,volume\n1,0.5\n2,0.5\n"),
+    ("table", "lower,upper,volume\n1e-300,2e-300,0.5\n2e-300,4e-300,0.5\n", "lower,upper,volume\n1,2,0.5\n2,4,0.5\n"),
+    ("table", "lower,upper,number\n1e300,2e300,0.5\n2e300,4e300,0.5\n", "lower,upper,number\n1,2,0.5\n2,4,0.5\n"),
+    ("list", "1e300\n2e300\n1.5e300\n", "1\n2\n1.5\n"),
+    ("list", "1e-310\n2e-310\n", "1\n2\n"),
+])
+def test_sizes_in_any_unit_give_the_same_distribution(tmp_path, family, content, reference):
+    (tmp_path / "a.csv").write_text(content)
+    (tmp_path / "b.csv").write_text(reference)
+    a, b = parse(f"{family}:{tmp_path / 'a.csv'}"), parse(f"{family}:{tmp_path / 'b.csv'}")
+    for x, y in zip(a.descriptors().as_dict().values(), b.descriptors().as_dict().values()):
+        assert x == pytest.approx(y, rel=1e-9)
+    n = a.fixed_n or 50
+    np.testing.assert_allclose(a.draw(n, rng_for(1)), b.draw(n, rng_for(1)), rtol=1e-12)
+
+
+@pytest.mark.parametrize("family, content, message", [
+    ("table", "size,volume\n1e200,0.5\n1e300,0.5\n", "line 2: size=1e+200: the sizes span a ratio of 1e+100"),
+    ("table", "lower,upper,volume\n1e-10,1,0.5\n1,2,0.5\n", "lower=1e-10: the sizes span a ratio of 2e+10"),
+    ("list", "1\n1e-9\n", "line 2: diameter=1e-09: the sizes span"),
+])
+def test_a_span_of_sizes_without_a_packing_is_one_line(tmp_path, family, content, message):
+    (tmp_path / "f.csv").write_text(content)
+    with pytest.raises(InputError) as err:
+        parse(f"{family}:{tmp_path / 'f.csv'}")
+    assert message in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize("content", [
+    "\ufefflower,upper,volume %\n1,2,50\n2,4,50\n",  # Excel's CSV UTF-8
+    "lower;upper;volume %\n1;2;50\n2;4;50\n",
+    "lower;upper;volume %\n1,0;2,0;50,0\n2,0;4,0;50,0\n",  # decimal commas
+    "lower\tupper\tvolume %\n1\t2\t50\n2\t4\t50\n",
+    "lower,upper,volume %\n2,4,50\n1,2,50\n",  # coarsest first
+])
+def test_spreadsheet_and_instrument_layouts_are_read(tmp_path, content):
+    (tmp_path / "f.csv").write_bytes(content.encode("utf-8"))
+    (tmp_path / "ref.csv").write_text("lower,upper,volume %\n1,2,50\n2,4,50\n")
+    got, ref = parse(f"table:{tmp_path / 'f.csv'}").descriptors(), parse(f"table:{tmp_path / 'ref.csv'}").descriptors()
+    assert got.as_dict() == pytest.approx(ref.as_dict(), rel=1e-12)
+
+
+def test_descending_size_classes_and_cumulative_sieve_tables_are_read(tmp_path):
+    (tmp_path / "down.csv").write_text("size (um),volume %\n3,20\n2,50\n1,30\n")
+    (tmp_path / "up.csv").write_text("size (um),volume %\n1,30\n2,50\n3,20\n")
+    assert parse(f"table:{tmp_path / 'down.csv'}").descriptors() == parse(f"table:{tmp_path / 'up.csv'}").descriptors()
+    (tmp_path / "sieve.csv").write_text("size;Q3 (%)\n4;100\n2;60,5\n1;0\n")
+    (tmp_path / "sieve_up.csv").write_text("size,Q3 (%)\n1,0\n2,60.5\n4,100\n")
+    assert parse(f"table:{tmp_path / 'sieve.csv'}").descriptors().as_dict() == pytest.approx(
+        parse(f"table:{tmp_path / 'sieve_up.csv'}").descriptors().as_dict(), rel=1e-12)
+
+
+def test_a_table_with_an_unknown_separator_names_the_one_it_read(tmp_path):
+    (tmp_path / "f.csv").write_text("size|volume\n1|0.5\n2|0.5\n")
+    with pytest.raises(InputError, match=r"header='size\|volume' \(separated by commas\): needs a size column"):
+        parse(f"table:{tmp_path / 'f.csv'}")

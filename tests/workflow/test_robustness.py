@@ -480,3 +480,154 @@ def test_a_figure_to_the_null_device_is_refused(tmp_path):
     code, err, _ = cli("figure", "fig2", tmp_path / "ds.nc", "-o", null)
     assert code == 2 and len(err) == 1 and "not a stem" in err[0], err
     assert os.listdir(tmp_path) == ["null"]
+
+
+# --- issue 49 -------------------------------------------------------------------------------------------------------
+
+REPRODUCTION = Path(__file__).resolve().parents[2] / "archive" / "reproduction"
+
+
+def _spherejam(*args, cwd=None, timeout=120):
+    """(exit code, stderr) of ``spherejam ARGS`` in a subprocess: a reader that blocks fails the test, not the run."""
+    env = {**os.environ, "PYTHONPATH": SRC}
+    proc = subprocess.run([sys.executable, "-m", "spherejam.cli", *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+    return proc.returncode, proc.stderr.strip().splitlines()
+
+
+@pytest.mark.parametrize("argv", [
+    ["merge", "{fifo}", "-o", "{out}/m.nc"],
+    ["browse", "{fifo}"],
+    ["tables", "{fifo}", "--outdir", "{out}/t"],
+    ["dataset", "{fifo}", "-o", "{out}/d.nc"],
+    ["cost", "{fifo}"],
+    ["psd", "table:{fifo}"],
+    ["import", "{fifo}", "--format", "lammps", "-o", "{out}/i.h5"],
+])
+def test_a_fifo_as_input_is_refused_by_every_reader(tmp_path, argv):
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    code, err = _spherejam(*[a.format(fifo=fifo, out=tmp_path) for a in argv], timeout=60)
+    assert code == 2 and len(err) == 1 and "is a FIFO, not a" in err[0], err
+
+
+def test_a_fifo_inside_a_results_folder_is_refused_by_the_dataset_readers(tmp_path):
+    """`dataset` reads each packing's HDF5 attributes, its structure.json and calippso.json, and the contact forces
+    of calippso.h5: a FIFO in place of any of them is one error, not a hang."""
+    for name in ("calippso.h5", "jammed.h5", "structure.json"):
+        os.mkfifo(tmp_path / name)
+    script = (
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from spherejam.core.errors import PackingFileError\n"
+        "from spherejam.core.packing_io import read_group\n"
+        "from spherejam.workflow.dataset import _attrs, _json_scalars\n"
+        f"folder = Path({str(tmp_path)!r})\n"
+        "for call in (lambda: read_group(folder / 'calippso.h5', 'contacts'), lambda: _attrs(folder / 'jammed.h5'),\n"
+        "             lambda: _json_scalars(folder / 'structure.json', '')):\n"
+        "    try:\n"
+        "        call()\n"
+        "    except PackingFileError as exc:\n"
+        "        print(exc)\n")
+    proc = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
+                          text=True, timeout=60)
+    lines = proc.stdout.strip().splitlines()
+    assert len(lines) == 3 and all("is a FIFO, not a" in line for line in lines), (lines, proc.stderr)
+
+
+@pytest.mark.parametrize("content, message", [
+    ({"z_nonrattler": "six", "n_contacts": 300}, "z_nonrattler=\"six\": must be a number"),
+    ({"z_nonrattler": [6.0]}, "z_nonrattler=[6.0]: must be a number"),
+    ([1, 2, 3], "a JSON list; expected an object"),
+    ({"scalars": "x"}, "a JSON str; expected an object"),
+])
+def test_a_non_numeric_results_value_is_one_line(tmp_path, content, message):
+    import json
+
+    from spherejam.core.errors import PackingFileError
+    from spherejam.workflow.dataset import _json_scalars
+
+    path = tmp_path / "structure.json"
+    path.write_text(json.dumps(content))
+    with pytest.raises(PackingFileError) as err:
+        _json_scalars(path, "")
+    assert message in str(err.value) and "\n" not in str(err.value), str(err.value)
+    path.write_text(json.dumps({"z_nonrattler": 6.0, "q6_global": None, "packing": {"path": "x"}}))
+    row = _json_scalars(path, "")  # paths and descriptions beside the variables are not read
+    assert row["z_nonrattler"] == 6.0 and np.isnan(row["q6_global"])
+
+
+def test_rcp_refuses_an_n_the_distribution_cannot_be_drawn_at_in_the_dry_run(tmp_path):
+    code, err, out = cli("rcp", "bidisperse:ratio=10,small=0.3,by=volume", "--n", 200, "--dry-run",
+                         "--workflow", Path(SRC).parent, "-o", tmp_path / "res")
+    assert code == 2 and len(err) == 1 and "at N = 200 the large spheres" in err[0] and "use N >= 430" in err[0], err
+    assert not (tmp_path / "res").exists()
+
+
+def test_rcp_refuses_a_file_as_its_results_folder(tmp_path):
+    (tmp_path / "afile").write_text("mine")
+    code, err, _ = cli("rcp", "gaussian:delta=0.1", "-o", tmp_path / "afile", "--dry-run", "--workflow",
+                       Path(SRC).parent)
+    assert code == 2 and len(err) == 1 and err[0].startswith("spherejam rcp: error: -o/--results="), err
+    assert (tmp_path / "afile").read_text() == "mine"
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"", "an empty file"),
+    (b"n: [\n", "not valid YAML"),
+    (b"- 1\n- 2\n", "this file holds a list"),
+    (b"\xff\xfe\x00n: 1\n", "not a UTF-8 text file"),
+    (b"n: 200\nreplicas: 1\nn: 300\n", "key 'n' is given twice"),
+])
+def test_rcp_template_and_cost_read_config_files_alike(tmp_path, content, message):
+    template = tmp_path / "t.yaml"
+    template.write_bytes(content)
+    code, err, _ = cli("rcp", "gaussian:delta=0.1", "--template", template, "--dry-run", "--workflow",
+                       Path(SRC).parent, "-o", tmp_path / "res")
+    assert code == 2 and len(err) == 1 and "--template=" in err[0] and message in err[0], err
+    if content:  # an empty file is a valid (empty) config for `cost`, which merges several
+        code, err, _ = cli("cost", template)
+        assert code == 2 and len(err) == 1 and message in err[0], err
+
+
+def test_a_tiny_box_seed_fits_its_largest_sphere(tmp_path):
+    """N = 2 at 1:10: the large sphere met its own image ("overlap between spheres 1 and 1", exit 1)."""
+    out = tmp_path / "s.h5"
+    assert cli("seed", "--n", 2, "--psd", "bidisperse:ratio=10,small=0.5,by=number", "--seed", 0, "-o", out)[0] == 0
+    packing = read_packing(out)
+    assert packing.check(1e-10).ok and packing.diameters.max() <= packing.box * (1 + 1e-12)
+    assert packing.diameters.max() / packing.diameters.min() == pytest.approx(10.0)
+
+
+_SIGNAL_DURING_WRITE = """
+import os, signal, sys
+import xarray as xr
+from spherejam.cli import main
+real = xr.Dataset.to_netcdf
+def write_then_signal(self, path, *args, **kwargs):
+    real(self, path, *args, **kwargs)  # the temporary file is complete; the rename is next
+    if {swallow}:
+        try:
+            os.kill(os.getpid(), signal.{sig})
+        except BaseException:  # a library that swallows what the handler raised
+            pass
+    else:
+        os.kill(os.getpid(), signal.{sig})
+xr.Dataset.to_netcdf = write_then_signal
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT"])
+@pytest.mark.parametrize("swallow", [False, True])
+def test_a_signal_during_a_write_leaves_no_output_and_no_temporary(tmp_path, sig, swallow):
+    script = tmp_path / "run.py"
+    script.write_text(_SIGNAL_DURING_WRITE.format(swallow=swallow, sig=sig))
+    out = tmp_path / "out" / "merged.nc"
+    out.parent.mkdir()
+    proc = subprocess.run([sys.executable, str(script), "merge", str(REPRODUCTION / "dataset.nc"), "-o", str(out)],
+                          env={**os.environ, "PYTHONPATH": SRC}, capture_output=True, text=True, timeout=300)
+    err = proc.stderr.strip().splitlines()
+    assert proc.returncode == 128 + getattr(signal, sig), proc.stderr
+    assert err == [f"spherejam merge: stopped by {sig}; no output written (an existing one is kept)"], err
+    assert os.listdir(out.parent) == []  # neither the output nor its temporary .merged.nc.XXXXXXXX.tmp.nc

@@ -146,3 +146,40 @@ def test_quantile_method_reports_the_alpha_quantile():
     assert t3.loc[0.3, "fb_phi_high"] == fb[8]  # ceil(0.9 * 10) = 9th value
     assert t3.loc[0.3, "fb_phi_low"] == fb[1]  # floor(0.1 * 10) + 1 = 2nd value
     assert t3.loc[0.3, "fb_phi_max_fast"] == fb[-1]
+
+
+# --- issue 49: tables say what was taken rather than measured ----------------------------------------------------
+
+
+def test_the_monodisperse_gcp_is_labelled_as_the_paper_s_with_no_difference():
+    t = compute_tables(synthetic_dataset())
+    mono = t["table4"].set_index("sigma").loc[0.0]
+    assert mono.phi_GCP == 0.65 and mono.phi_GCP_source == "paper"
+    assert np.isnan(mono.phi_GCP_minus_paper) and np.isnan(mono.phi_GCP_minus_paper_in_half_widths)
+    assert t["table4"].set_index("sigma").loc[0.3, "phi_GCP_source"] == "measured"
+    from spherejam.workflow.tables import TAKEN_FROM_PAPER, comparison, formatted
+
+    cells = formatted("table4", t["table4"]).reset_index()
+    gcp = cells[cells.quantity == "φ_GCP"].iloc[0]  # the rows run by sigma: sigma = 0 first
+    assert gcp.ours == f"0.6500 ({TAKEN_FROM_PAPER})" and gcp["ours − paper"] == "–"
+    assert gcp["(ours − paper) / half-width"] == "–"
+    row = comparison(t).query("table == 'Table 4' and quantity == 'phi_GCP' and sigma == 0").iloc[0]
+    assert row.note == TAKEN_FROM_PAPER and np.isnan(row.ours_minus_paper)
+
+
+def test_no_slow_series_is_said_and_fast_packings_are_not_fitted():
+    """LS with fast compressions only (1/gamma < 5, as the reproduction ladder at N = 500): its Table 2 cells say so
+    and fit nothing; FB, with its slow series, is fitted as before."""
+    ds = synthetic_dataset()
+    keep = ~((ds.protocol.values == "ls") & (ds.inverse_rate.values >= 5))
+    ds = ds.isel(packing=np.flatnonzero(keep))
+    from spherejam.workflow.tables import NO_SLOW_SERIES, formatted
+
+    t2 = compute_tables(ds)["table2"]
+    ls = t2[t2.protocol == "ls"]
+    assert len(ls) == 2 and (ls.status == NO_SLOW_SERIES).all() and (ls.n_points == 0).all()
+    assert ls.phi_gcp.isna().all() and "c0" not in ls.dropna(axis=1).columns
+    fb = t2[t2.protocol == "fb"]
+    np.testing.assert_allclose(fb[fb.variable == "phi_J"].phi_gcp.values, GCP[0.3], atol=1e-9)
+    cells = formatted("table2", t2)
+    assert (cells["φ_GCP (ours)"] == NO_SLOW_SERIES).sum() == 2

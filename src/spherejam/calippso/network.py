@@ -31,6 +31,48 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
     return contact, rattler, n_contacts, isostatic, residual
 
 
+#: Rows closer than this relative gap are the touching pairs a degenerate dual's forces are sought on.
+TOUCHING_GAP = 1e-9
+
+
+def balanced_forces(rij, sigma2, pi, pj, n):
+    """Duals of a force network on the touching rows, for an LP whose own duals carry none (a crystal: FCC, the
+    N = 2 BCC; the optimum Gamma = 1 is degenerate and the solver's vertex may put every dual to zero).
+
+    Contact forces f_k >= 0 on the rows with gap below :data:`TOUCHING_GAP`, balanced on every sphere
+    (sum_k f_k r_k = 0 per sphere), summing to 1, with the smallest force as large as possible (so that in a
+    symmetric crystal every contact carries one). Returned as duals (f_k / sigma2_k, zero on the other rows), as the
+    main LP's would be; all zero if no such network exists (a sphere jammed only by its own image has no row)."""
+    from scipy.optimize import linprog
+    from scipy.sparse import coo_matrix, vstack
+
+    duals = np.zeros(len(sigma2))
+    touching = np.flatnonzero(np.sum(rij * rij, axis=1) < sigma2 * (1.0 + TOUCHING_GAP) ** 2)
+    m = touching.size
+    if m == 0:
+        return duals
+    dim = rij.shape[1]
+    k = np.arange(m)
+    r = rij[touching]
+    rows = np.concatenate([pi[touching, None] * dim + np.arange(dim), pj[touching, None] * dim + np.arange(dim)])
+    cols = np.concatenate([np.repeat(k[:, None], dim, axis=1)] * 2)
+    vals = np.concatenate([r, -r])
+    balance = coo_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n * dim, m + 1))
+    total = coo_matrix((np.ones(m), (np.zeros(m, int), k)), shape=(1, m + 1))
+    a_eq = vstack([balance, total]).tocsr()
+    b_eq = np.concatenate([np.zeros(n * dim), [1.0]])
+    a_ub = coo_matrix((np.concatenate([-np.ones(m), np.ones(m)]), (np.concatenate([k, k]),
+                       np.concatenate([k, np.full(m, m)]))), shape=(m, m + 1)).tocsr()  # t <= f_k
+    cost = np.zeros(m + 1)
+    cost[m] = -1.0  # maximise the smallest force t
+    res = linprog(cost, A_ub=a_ub, b_ub=np.zeros(m), A_eq=a_eq, b_eq=b_eq,
+                  bounds=[(0, None)] * m + [(0, None)], method="highs")
+    if res.status != 0:
+        return duals
+    duals[touching] = np.maximum(res.x[:m], 0.0) / sigma2[touching]
+    return duals
+
+
 def force_balance(rij, weight, pi, pj, n, rattler) -> float:
     """max over non-rattlers of |sum_j w_ij r_ij| divided by the mean w_ij |r_ij| over pairs with w > 0."""
     active = weight > 0

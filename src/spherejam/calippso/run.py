@@ -35,7 +35,7 @@ from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex
 from .constraints import closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
-from .network import contact_network, initial_pin, near_gaps, repin
+from .network import balanced_forces, contact_network, initial_pin, near_gaps, repin
 from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
 
@@ -44,8 +44,9 @@ _log = logging.getLogger("spherejam")
 #: Largest correction of sqrt(Gamma) tolerated for solver round-off before the step is declared broken (docs §1.8).
 MAX_OVERLAP_CORRECTION = 1e-8
 CHECKPOINT_KIND = "calippso"
-#: Why a run stopped: both tolerances met, or the iteration cap reached first.
-STOP_REASONS = ("converged", "max_iterations")
+#: Why a run stopped: both tolerances met, the iteration cap reached first, or the tolerances met without a force
+#: network to certify (no contact among non-rattlers, or forces that do not balance: :func:`has_force_network`).
+STOP_REASONS = ("converged", "max_iterations", "no_force_network")
 #: Parameters a resumed run may change (the same trajectory): they do not enter the checkpoint's fingerprint.
 RESUMABLE_CHANGES = ("max_iterations", "threads")
 
@@ -63,7 +64,9 @@ class CalippsoResult:
         The jammed packing with ACTUAL diameters (same box and length unit as the input); metadata
         ``algorithm="calippso"``, ``parameters``, ``counters``.
     stop_reason : str
-        One of :data:`STOP_REASONS`: "converged" (both tolerances met) or "max_iterations".
+        One of :data:`STOP_REASONS`: "converged" (both tolerances met, and a force network certifies it),
+        "max_iterations", or "no_force_network" (the tolerances met, but no contact among non-rattlers or an
+        infinite force balance: nothing is certified).
     iterations : int
         LPs solved in the main loop (the final force LP not included).
     history : dict of arrays, one row per iteration
@@ -321,7 +324,26 @@ def run_calippso(
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
                               f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
                               f"max|s| = {run.history.last('max_displacement'):.3e})")
-    return _result(packing, run, cfg, parameters, ckpt, converged, fine_tune, gap_range, overlap_tolerance, wall0)
+    result = _result(packing, run, cfg, parameters, ckpt, converged, fine_tune, gap_range, overlap_tolerance, wall0)
+    if result.stop_reason == "no_force_network" and require_convergence:
+        raise SimulationError(no_force_network_message(result))
+    return result
+
+
+def has_force_network(n_contacts: float, force_balance_residual: float) -> bool:
+    """A CALiPPSO certificate certifies something: contacts among non-rattlers whose forces balance (a finite
+    residual). The one rule of the run's ``converged`` and of the dataset's rows (docs/robustness.md)."""
+    return bool(n_contacts > 0 and math.isfinite(force_balance_residual))
+
+
+def no_force_network_message(result: CalippsoResult) -> str:
+    """One line: why a run whose LPs converged certifies nothing."""
+    box, d_max = result.packing.box, float(result.packing.diameters.max())
+    why = (f"; the largest sphere (D = {d_max:.6g}) spans the box (L = {box:.6g}) and touches its own image, a "
+           "contact the LP does not have" if d_max >= box * (1 - 1e-6) else "")
+    return (f"CALiPPSO's LPs converged but left no force network ({result.n_contacts} contacts among non-rattlers, "
+            f"{result.n_rattlers} of {result.rattlers.size} spheres rattlers, force balance "
+            f"{result.force_balance_residual:.3g}){why}: nothing certified")
 
 
 # --- setting a run up and assembling its result -----------------------------------------------------------------------
@@ -367,6 +389,10 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
     lp, duals, fine_tuned, fine_inflation = _force_lp(run, cfg, fine_tune)
     contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, cfg.n,
                                                                         cfg.dim, cfg.zero_force)
+    if converged and not has_force_network(n_contacts, residual):  # a degenerate dual (a crystal): seek the forces
+        duals = balanced_forces(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n)
+        contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
+                                                                            cfg.n, cfg.dim, cfg.zero_force)
     pairs, forces, vectors, stable_pair = _contact_forces(lp, duals, contact, rattler)
     gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
                                 pair_keys(lp.pi, lp.pj, cfg.n)[stable_pair], cfg.n)
@@ -376,6 +402,9 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         raise SimulationError(f"CALiPPSO output overlaps: {final_report}")
     wall = time.perf_counter() - wall0
     stop_reason = "converged" if converged else "max_iterations"
+    if converged and not has_force_network(n_contacts, residual):  # converged LPs, nothing that certifies them
+        stop_reason, converged = "no_force_network", False
+        ckpt.discard()  # more iterations would not make one
     phi_initial = packing.phi
     counters = {
         "iterations": run.iteration, "stop_reason": stop_reason, "converged": converged,
@@ -390,7 +419,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
     out.metadata["counters"] = counters
     if converged:
         ckpt.discard()
-    else:  # a later call with a larger max_iterations continues from here
+    elif stop_reason == "max_iterations":  # a later call with a larger max_iterations continues from here
         run.save(ckpt)
     return CalippsoResult(
         packing=out, stop_reason=stop_reason, iterations=run.iteration, history=run.history.as_arrays(),

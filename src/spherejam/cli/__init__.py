@@ -66,18 +66,28 @@ def main(argv: list[str] | None = None) -> int:
     # are not ours to show, quiet or not.
     logging.basicConfig(level=logging.WARNING, format="%(message)s", stream=sys.stderr)
     logging.getLogger("spherejam").setLevel(logging.WARNING if args.quiet else logging.INFO)
-    if args.command in INTERRUPTIBLE:
-        interrupt.install()
+    # the long runs stop at their next step with a checkpoint; every other command stops at once, writing nothing
+    previous = interrupt.install(at_once=args.command not in INTERRUPTIBLE)
+    try:
+        return _run(args)
+    finally:
+        # a caller of main() gets its handlers back; the spherejam process itself is ending: a signal from here on
+        # only sets the exit status (no traceback from the interpreter's shutdown)
+        interrupt.restore(previous if argv is not None else interrupt.quiet_exit_handlers())
+
+
+def _run(args) -> int:
     try:
         with live_status(enabled=not args.quiet):  # the live progress line, on a terminal only
             code = int(args.func(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's exit
+        interrupt.check()  # a signal whose exception a library swallowed: not a success
         return code
     except BrokenPipeError:
         # the reader went away: say nothing, and point stdout at /dev/null so the exit-time flush cannot fail again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
-    except interrupt.Interrupted as exc:
+    except (interrupt.Interrupted, interrupt.Stopped) as exc:
         sys.stderr.write(f"spherejam {args.command}: {exc}\n")
         return exc.exit_status
     except (InputError, PackingFileError) as exc:

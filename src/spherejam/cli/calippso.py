@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from ..core.output_paths import check_outputs, output_file
@@ -70,6 +71,10 @@ def _calippso(args) -> int:
         with atomic_output(args.summary, ".json") as tmp:
             tmp.write_text(json.dumps(summary, indent=2, allow_nan=True))
     write_packing(args.output, result.packing, history=result.history, groups={"contacts": contact_arrays(result)})
+    if result.stop_reason == "no_force_network":
+        from ..calippso.run import no_force_network_message
+
+        sys.stderr.write(f"spherejam calippso: {no_force_network_message(result)}\n")
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

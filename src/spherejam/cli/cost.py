@@ -18,25 +18,11 @@ def register(sub) -> None:
 
 
 def _cost(args) -> int:
-    import yaml
-
     from ..core.errors import InputError
-    from ..workflow.config import check_config, load_config_file
+    from ..workflow.config import check_config
     from ..workflow.cost_model import load_configs, print_plan
 
-    for path in args.configs:
-        if not path.is_file():
-            raise InputError(f"{path}: no such config file")
-        try:
-            data = load_config_file(path)
-        except yaml.YAMLError as exc:
-            raise InputError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-        except UnicodeDecodeError:
-            raise InputError(f"{path}: not a text file") from None
-        if not isinstance(data, (dict, type(None))):
-            raise InputError(f"{path}: a config is a mapping of keys to values, this file holds a "
-                             f"{type(data).__name__}")
-    config = load_configs(*args.configs)
+    config = load_configs(*args.configs)  # each file through the one config loader (load_config_file)
     if "n" not in config:
         raise InputError(f"config: no 'n' (spheres per packing) in {', '.join(map(str, args.configs))}")
     check_config(config)  # the workflow's limits (finite numbers, ranges), so the plan is of a config that runs

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from ..core.errors import InputError, SpherejamError
+from ..core.output_paths import check_output_dir
 from ..core.validation import FIELDS
 from . import seed_int
 
@@ -66,17 +67,14 @@ def named_specs(items: list[str]) -> dict[str, str]:
 
 
 def build_config(args) -> dict:
-    import yaml
-
     from ..core.size_distribution import parse
+    from ..workflow.config import load_config_file
 
     template = args.template or args.workflow / TEMPLATE
     if not (args.workflow / "Snakefile").is_file():
         raise InputError(f"--workflow={str(args.workflow)!r}: no Snakefile there (run from the spherejam "
                          "repository, or give its path)")
-    if not template.is_file():
-        raise InputError(f"--template={str(template)!r}: no such config file")
-    config = yaml.safe_load(template.read_text())
+    config = load_config_file(template, "--template", empty_ok=False)  # the loader `spherejam cost` uses
     dists = named_specs(args.specs)
     for name, spec in dists.items():
         parse(spec, name)  # a bad spec or file: one line, before anything is written
@@ -96,6 +94,7 @@ def _rcp(args) -> int:
     from ..workflow.cost_model import plan, print_plan
     from ..workflow.experiment import Experiment
 
+    check_output_dir("-o/--results", args.results)  # a file there: one line naming the option, before any work
     config = build_config(args)
     validate_config(config, args.workflow / "config" / "schema.yaml")
     exp = Experiment(config)

@@ -45,7 +45,8 @@ def register(sub) -> None:
     p = sub.add_parser("archive", help="pack a finished run (dataset, tables, figures, chosen packings) into a "
                                        "folder with a README, to track or publish")
     p.add_argument("results", type=Path, help="the run's results folder (holding dataset.nc)")
-    p.add_argument("-o", "--output", type=Path, required=True, help="the archive folder (replaced as a whole)")
+    p.add_argument("-o", "--output", type=str, required=True,
+                   help="the archive folder: a new one, or an archive this command wrote (replaced as a whole)")
     p.add_argument("--packings", action="append", default=[], metavar="PATTERN",
                    help="also the files of the packings whose key matches this glob, e.g. 'n1000/*' (repeatable)")
     p.add_argument("--stage", action="append", choices=("poisson", "initial", "jammed", "calippso_packing"),
@@ -133,8 +134,8 @@ def _archive(args) -> int:
         "spherejam archive")
     plan = write_archive(args.results, args.output, args.packings, tuple(args.stage or ("jammed",)), args.max_mb,
                          command, args.no_history)
-    size = sum(p.stat().st_size for p in args.output.rglob("*") if p.is_file())
-    print(f"{args.output}: {len(plan.files) + 1} files, {size / 1e6:.1f} MB")
+    size = sum(p.stat().st_size for p in Path(args.output).rglob("*") if p.is_file())
+    print(f"{args.output}: {len(plan.files) + 2} files, {size / 1e6:.1f} MB")
     return 0
 
 

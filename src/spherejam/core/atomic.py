@@ -16,7 +16,7 @@ live (docs/robustness.md, "Outputs"):
   command-line argument the path came from (:func:`label_output`), and leaves the old file in place.
 
 :func:`atomic_folder` does the same for a set of files that belong together (tables, a packing-generation folder):
-all new or all old.
+all new or all old; :func:`replaced_folder` replaces a whole folder (an archive) by exchanging it with a new one.
 """
 
 from __future__ import annotations
@@ -25,11 +25,13 @@ import contextlib
 import errno
 import os
 import shutil
+import signal
 import stat
 import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
+from . import interrupt
 from .errors import InputError, OutputError
 
 #: Longest file name prefix a temporary file keeps of its target's name: ``.{name}.XXXXXXXX.tmp{suffix}`` must fit
@@ -136,6 +138,7 @@ def atomic_output(path: str | os.PathLike, suffix: str = ""):
     try:
         with _write_errors(path):  # inside: a full disk is recognised before the partial file is deleted
             yield Path(tmp)
+            interrupt.check()  # a signal (even one a library swallowed) never ends with a new output in place
             os.replace(tmp, target)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
@@ -159,6 +162,7 @@ def atomic_folder(folder: str | os.PathLike, names: Iterable[str]):
         missing = [n for n in names if not (tmp / n).is_file()]
         if missing:
             raise OutputError(f"{_label(folder)}: {', '.join(missing)} not written")
+        interrupt.check()
         if not folder.exists():
             os.chmod(tmp, 0o777 & ~_umask())
             os.rename(tmp, folder)
@@ -171,6 +175,70 @@ def atomic_folder(folder: str | os.PathLike, names: Iterable[str]):
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+@contextlib.contextmanager
+def replaced_folder(folder: str | os.PathLike):
+    """Yield a fresh temporary folder beside ``folder`` (same parent: a fresh name, never a fixed one a user may
+    hold); fill it. On success it takes ``folder``'s place in one step: renamed in if ``folder`` is missing,
+    exchanged with it if not (``renameat2(RENAME_EXCHANGE)``), and then the old folder is deleted. At every instant
+    either the old or the new folder is at the path, also under kill -9. The caller decides beforehand that the
+    existing ``folder`` may be replaced (:mod:`spherejam.workflow.archive` checks its manifest). On error or a
+    signal the temporary folder is deleted and ``folder`` is as it was."""
+    folder = Path(os.path.realpath(folder))  # a symlink is followed: its target is replaced, the link stays
+    with _write_errors(folder):
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(folder), suffix=".tmp", dir=folder.parent))
+    try:
+        with _write_errors(folder):
+            yield tmp
+        interrupt.check()
+        os.chmod(tmp, 0o777 & ~_umask())
+        if _swap_in(tmp, folder):  # tmp now holds the old folder
+            shutil.rmtree(tmp)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)  # the new folder, or (after the swap) the old one
+        raise
+
+
+_RENAME_NOREPLACE, _RENAME_EXCHANGE, _AT_FDCWD = 1, 2, -100
+
+
+def _swap_in(new: Path, target: Path) -> bool:
+    """Put the folder ``new`` at ``target`` in one step; True if ``target`` existed (``new`` then holds it)."""
+    exists = os.path.lexists(target)
+    flag = _RENAME_EXCHANGE if exists else _RENAME_NOREPLACE
+    if _renameat2(new, target, flag):
+        return exists
+    # no renameat2 on this system or file system: two renames with the signals held back between them (only a
+    # kill -9 in those microseconds could leave the path empty; the old folder is then beside it)
+    old = Path(tempfile.mkdtemp(prefix=temp_prefix(target), suffix=".old", dir=target.parent)) if exists else None
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, interrupt.SIGNALS)
+    try:
+        if old is not None:
+            os.rename(target, old)  # onto the empty folder mkdtemp made: a fresh name
+        os.rename(new, target)
+        if old is not None:
+            os.rename(old, new)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    return exists
+
+
+def _renameat2(source: Path, target: Path, flag: int) -> bool:
+    """``renameat2(source, target, flag)``; False where the system or the file system does not offer it."""
+    import ctypes
+
+    try:
+        call = ctypes.CDLL(None, use_errno=True).renameat2
+    except (AttributeError, OSError):
+        return False
+    if call(_AT_FDCWD, os.fsencode(source), _AT_FDCWD, os.fsencode(target), flag) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
+        return False
+    raise OSError(err, os.strerror(err), os.fspath(target))
 
 
 @contextlib.contextmanager

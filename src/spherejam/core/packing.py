@@ -222,8 +222,12 @@ class Packing:
 
     def scaled_to_contact(self) -> Packing:
         """Diameters scaled by one factor so that the closest pair just touches (h_min = 1), or a sphere just
-        touches a wall if that comes first."""
-        h = min(self.closest_pair()[2], self.container.max_scale(self.positions, self.diameters))
+        touches a wall if that comes first; a sphere and its own image (r = L_k along a periodic axis) count as a
+        pair, so that in a tiny box the largest sphere is at most as wide as the box."""
+        c = self.container
+        period = min((L for L, p in zip(c.lengths, c.periodic) if p), default=math.inf)
+        h = min(self.closest_pair()[2], period / float(self.diameters.max()),
+                c.max_scale(self.positions, self.diameters))
         return self.replace(diameters=self.diameters * h)
 
     def __repr__(self) -> str:

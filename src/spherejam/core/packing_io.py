@@ -22,9 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from .atomic import atomic_output, special_kind
+from .atomic import atomic_output
 from .container import Container
 from .errors import OverlapError, PackingFileError
+from .input_paths import regular_file
 from .packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from .provenance import provenance
 from .validation import BOX_SIDE
@@ -105,6 +106,7 @@ def write_packing(
 
 def read_group(path: str | os.PathLike, group: str) -> dict[str, np.ndarray]:
     """The arrays of one extra group of a packing file (empty if the group is absent)."""
+    path = regular_file(path, "packing file", missing="no such file")
     h5py = _h5py()
     try:
         with h5py.File(path, "r") as f:
@@ -156,13 +158,7 @@ def read_packing(
     None) that no pair overlaps beyond ``tolerance``. Any problem raises :class:`PackingFileError` naming the file.
     Returns the packing, or ``(packing, history)`` if ``with_history``.
     """
-    path = Path(path)
-    if not path.exists():
-        reject_file(path, "no such file")
-    if path.is_dir():
-        reject_file(path, "is a directory, not a packing file")
-    if not path.is_file():  # a FIFO would block the reader for ever, a device would be read as HDF5
-        reject_file(path, f"is {special_kind(path) or 'not a regular file'}, not a packing file")
+    path = regular_file(path, "packing file", missing="no such file")
     h5py = _h5py()
     try:
         with h5py.File(path, "r") as f:

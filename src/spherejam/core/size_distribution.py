@@ -37,6 +37,7 @@ import numpy as np
 from scipy.special import ndtr, ndtri
 
 from .errors import InputError
+from .input_paths import regular_file
 
 FAMILIES = ("lognormal", "gaussian", "uniform", "bidisperse", "powerlaw", "table", "list")
 #: Largest lognormal sigma: beyond it the size ratios of a sample grow without practical bound.
@@ -104,8 +105,15 @@ class SizeDistribution:
     def draw(self, n: int, rng: np.random.Generator, normalise: bool = True) -> np.ndarray:
         """``n`` diameters from the stream ``rng``, scaled to sample mean exactly 1 (``normalise=False``: in the
         family's own unit, the file's for a table or list)."""
+        self.check_n(int(n))
         d = self._draw(int(n), rng)
-        return d / d.mean() if normalise else d
+        # a file's sizes are held relative to its largest (any unit, 1e-200 or 1e300, gives finite moments)
+        return d / d.mean() if normalise else d * float(getattr(self, "source", {}).get("largest_size", 1.0))
+
+    def check_n(self, n: int) -> None:
+        """Raise :class:`InputError` if a sample of ``n`` spheres cannot be the distribution asked for (a mixture
+        that would lose one of its sizes, a list of another length). Called by every draw, and by the workflow for
+        each N of a config before any job runs."""
 
     def descriptors(self) -> Descriptors:
         """The population's descriptors (closed forms)."""
@@ -271,25 +279,35 @@ class Uniform(PowerLaw):
 @dataclass(frozen=True)
 class Discrete(SizeDistribution):
     """Spheres of a few exact sizes with number fractions (``bidisperse``, a ``table`` of size classes). A sample of
-    N spheres has exactly round(N x_i) spheres of size i (largest remainders; the classes' order in the sample is
-    shuffled by the stream), so the mixture is the one asked for, not a random composition near it."""
+    N spheres has floor(N x_i) spheres of size i, and the spheres left over go one each to classes drawn by
+    systematic sampling over the remainders N x_i - floor(N x_i) with one seeded offset: class i gets floor(N x_i)
+    or floor(N x_i) + 1 spheres, N x_i on average, whatever the seed, the number of classes or their order (a
+    deterministic rounding gave ties to the smallest classes, the same for every seed). Where every N x_i is whole,
+    no random number is used and the mixture is exactly the one asked for. The classes' order in the sample is
+    shuffled by the stream."""
 
     sizes: tuple = ()
     weights: tuple = ()  # number fractions, sum 1
     family = "discrete"
 
-    def _counts(self, n) -> np.ndarray:
-        """Spheres of each size in a sample of ``n``: round(n x_i) by largest remainders."""
+    def _counts(self, n, rng) -> np.ndarray:
+        """Spheres of each size in a sample of ``n``: floor(n x_i), plus one for the classes the systematic draw
+        over the remainders picks."""
         w = np.asarray(self.weights)
         exact = w * n
-        counts = np.floor(exact).astype(int)
-        rest = n - counts.sum()
-        if rest:
-            counts[np.argsort(-(exact - counts), kind="stable")[:rest]] += 1
+        counts = np.floor(exact + 1e-9).astype(int)  # a whole N x_i stays whole through round-off
+        if counts.sum() > n:  # only if many classes sit just below a whole count
+            counts = np.floor(exact).astype(int)
+        rest = int(n - counts.sum())
+        if rest > 0:
+            edges = np.cumsum(np.clip(exact - counts, 0.0, None))
+            edges *= rest / edges[-1]  # the remainders sum to rest; this only removes round-off
+            points = rng.random() + np.arange(rest)  # one offset, spacing 1: each remainder < 1 gets at most one
+            counts += np.diff(np.searchsorted(points, edges, side="left"), prepend=0)
         return counts
 
     def _draw(self, n, rng):
-        d = np.repeat(np.asarray(self.sizes, dtype=float), self._counts(n))
+        d = np.repeat(np.asarray(self.sizes, dtype=float), self._counts(n, rng))
         return rng.permutation(d)
 
     def _raw_moments(self):
@@ -311,13 +329,13 @@ class Bidisperse(Discrete):
 
     family = "bidisperse"
 
-    def _draw(self, n, rng):
-        # a mixture asked for must not silently become equal spheres (a table's rare classes may round to none)
-        for label, share, count in zip(("small", "large"), self.weights, self._counts(n)):
-            if count == 0:
-                raise InputError(f"{self.spec}: at N = {n} the {label} spheres' number share {share:.3g} rounds to "
-                                 f"no sphere, the sample would be monodisperse; use N >= {math.floor(0.5 / share) + 1}")
-        return super()._draw(n, rng)
+    def check_n(self, n):
+        # a mixture asked for must not become equal spheres for some seeds (a table's rare classes may get none)
+        for label, share in zip(("small", "large"), self.weights):
+            if math.floor(n * share + 1e-9) == 0:
+                raise InputError(f"{self.spec}: at N = {n} the {label} spheres' number share {share:.3g} gives "
+                                 f"{n * share:.3g} spheres, so a sample may hold none and be monodisperse; use "
+                                 f"N >= {math.ceil(1 / share - 1e-9)}")
 
 
 @dataclass(frozen=True)
@@ -392,9 +410,11 @@ class DiameterList(SizeDistribution):
     def fixed_n(self):
         return len(self.diameters)
 
-    def _draw(self, n, rng):
+    def check_n(self, n):
         if n != len(self.diameters):
             raise InputError(f"n={n}: {self.spec} holds {len(self.diameters)} diameters (N is taken from the file)")
+
+    def _draw(self, n, rng):
         return np.asarray(self.diameters, dtype=float)
 
     def _raw_moments(self):
@@ -426,7 +446,14 @@ _PARAMETERS = {
 
 def lognormal_spec(sigma: float) -> str:
     """The spec of the paper's log-normal with relative std sigma (``--sigma``, config ``sigmas``)."""
-    return f"lognormal:sigma={float(sigma):g}"
+    return f"lognormal:sigma={spec_number(sigma)}"
+
+
+def spec_number(value: float) -> str:
+    """A parameter as a spec records it: short (``0.3``, ``10``) where that is the same float, else its repr, so
+    that parsing the recorded spec gives the same parameters and hence the same draw."""
+    short = f"{float(value):g}"
+    return short if float(short) == float(value) else repr(float(value))
 
 
 def parse(spec: str, field: str = "psd") -> SizeDistribution:
@@ -455,19 +482,20 @@ def parse(spec: str, field: str = "psd") -> SizeDistribution:
     if family == "gaussian":
         delta = values["delta"]
         _check(0 <= delta <= 1, where, "delta", delta, "must be in [0, 1]")
-        return Gaussian(f"gaussian:delta={delta:g}", delta)
+        return Gaussian(f"gaussian:delta={spec_number(delta)}", delta)
     ratio = values["ratio"]
     _check(1 <= ratio <= MAX_RATIO, where, "ratio", ratio, f"must be in [1, {MAX_RATIO:g}] (d_max/d_min)")
     if family == "uniform":
-        return Uniform(f"uniform:ratio={ratio:g}", 0.0, ratio)
+        return Uniform(f"uniform:ratio={spec_number(ratio)}", 0.0, ratio)
     if family == "powerlaw":
         exponent = values["exponent"]
         _check(-20 <= exponent <= 20, where, "exponent", exponent, "must be in [-20, 20]")
-        return PowerLaw(f"powerlaw:exponent={exponent:g},ratio={ratio:g}", exponent, ratio)
+        return PowerLaw(f"powerlaw:exponent={spec_number(exponent)},ratio={spec_number(ratio)}", exponent, ratio)
     small, by = values["small"], values["by"]
     _check(0 < small < 1, where, "small", small, "must be in (0, 1), the small spheres' share")
     x_n = small if by == "number" else small / (small + (1 - small) / ratio**3)
-    return Bidisperse(f"bidisperse:ratio={ratio:g},small={small:g},by={by}", (1.0, ratio), (x_n, 1.0 - x_n))
+    return Bidisperse(f"bidisperse:ratio={spec_number(ratio)},small={spec_number(small)},by={by}", (1.0, ratio),
+                      (x_n, 1.0 - x_n))
 
 
 def _check(ok: bool, where: str, name: str, value, rule: str) -> None:
@@ -515,18 +543,43 @@ def _file_source(path: Path) -> dict:
     return {"file": str(path), "sha256": hashlib.sha256(data).hexdigest()}
 
 
+#: Largest ratio of the largest to the smallest size in a table or list file. Sizes are in any unit and are used
+#: relative to the file's largest, so 1e-200 um or 1e300 nm work alike. A wider span makes no packing: its box is
+#: several d_max wide, so the smallest spheres would be points, and D^3 of a span of 1e100 leaves double precision.
+MAX_FILE_RATIO = 1e6
+
+
 def _open(path: str, spec: str) -> tuple[Path, list[str]]:
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"{spec}: file {path!r} not found")
     try:
-        text = p.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{spec}: cannot read {path!r} ({exc})") from None
+        regular_file(p, "PSD file", error=InputError)
+        # utf-8-sig: Excel's "CSV UTF-8" starts with a byte-order mark, which would stick to the first header
+        text = p.read_bytes().decode("utf-8-sig")
+    except InputError as exc:
+        raise InputError(f"{spec}: {exc}") from None
+    except OSError as exc:
+        raise InputError(f"{spec}: cannot read {path!r} ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{spec}: {path!r} is not UTF-8 text (byte {exc.start}); save it as CSV UTF-8") from None
     return p, text.splitlines()
 
 
-def _number(text: str, where: str) -> float:
+def _relative(values: np.ndarray, lines: list[int], spec: str, name: str) -> tuple[np.ndarray, float]:
+    """``values`` (sizes > 0, in the file's unit) divided by the largest, and that largest; a span wider than
+    :data:`MAX_FILE_RATIO` is refused, naming the line of the smallest."""
+    largest = float(np.max(values))
+    k = int(np.argmin(values))
+    if largest / values[k] > MAX_FILE_RATIO:
+        raise InputError(f"{spec} line {lines[k]}: {name}={values[k]:g}: the sizes span a ratio of "
+                         f"{largest / values[k]:.3g} (largest {largest:g}); at most {MAX_FILE_RATIO:g}")
+    return values / largest, largest
+
+
+def _number(text: str, where: str, decimal_comma: bool = False) -> float:
+    if decimal_comma:
+        text = text.replace(",", ".")
     try:
         x = float(text)
     except ValueError:
@@ -540,7 +593,7 @@ def read_list(path: str, spec: str | None = None) -> DiameterList:
     """``list:FILE``: one diameter per line; blank lines and ``#`` comments are skipped."""
     spec = spec or f"list:{path}"
     p, lines = _open(path, spec)
-    diameters = []
+    diameters, lines_no = [], []
     for i, line in enumerate(lines, 1):
         text = line.split("#", 1)[0].strip()
         if not text:
@@ -549,9 +602,23 @@ def read_list(path: str, spec: str | None = None) -> DiameterList:
         if d <= 0:
             raise InputError(f"{spec} line {i}: diameter={text!r}: must be > 0")
         diameters.append(d)
+        lines_no.append(i)
     if len(diameters) < 2:
         raise InputError(f"{spec}: {len(diameters)} diameters: a packing needs at least 2")
-    return DiameterList(spec, tuple(diameters), _file_source(p))
+    relative, largest = _relative(np.array(diameters), lines_no, spec, "diameter")
+    return DiameterList(spec, tuple(map(float, relative)), {**_file_source(p), "largest_size": largest})
+
+
+#: Column separators a table may use: a comma (then a decimal point), or, as spreadsheets in many locales write them,
+#: a semicolon or a tab (then a decimal comma is read too).
+_SEPARATORS = {",": "commas", ";": "semicolons", "\t": "tabs"}
+
+
+def _delimiter(lines: list[str]) -> str:
+    """The separator of a table: the one its header line (the first line that is not blank or a comment) holds, a
+    tab before a semicolon before a comma."""
+    header = next((ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")), "")
+    return next((d for d in ("\t", ";") if d in header), ",")
 
 
 #: Fraction columns a table may have: header name -> (weighting, cumulative).
@@ -582,7 +649,8 @@ def read_table(path: str, spec: str | None = None) -> SizeDistribution:
     the mean D^3 of the bin (:class:`Binned`) or by D^3 of the class."""
     spec = spec or f"table:{path}"
     p, lines = _open(path, spec)
-    rows = [(i, r) for i, r in enumerate(csv.reader(lines), 1)
+    delimiter = _delimiter(lines)
+    rows = [(i, r) for i, r in enumerate(csv.reader(lines, delimiter=delimiter), 1)
             if r and any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     if not rows:
         raise InputError(f"{spec}: empty file (needs a header row and data rows)")
@@ -592,8 +660,9 @@ def read_table(path: str, spec: str | None = None) -> SizeDistribution:
     fractions = [n for n, _ in names if n in _FRACTION_COLUMNS]
     has_bins = "lower" in index and "upper" in index
     if len(fractions) != 1 or not (has_bins or "size" in index):
-        raise InputError(f"{spec} line {header_line}: header={','.join(header)!r}: needs a size column (size, or "
-                         f"lower and upper) and one fraction column ({', '.join(_FRACTION_COLUMNS)})")
+        raise InputError(f"{spec} line {header_line}: header={delimiter.join(header)!r} (separated by "
+                         f"{_SEPARATORS[delimiter]}): needs a size column (size, or lower and upper) and one fraction "
+                         f"column ({', '.join(_FRACTION_COLUMNS)})")
     frac_name = fractions[0]
     weighting, cumulative = _FRACTION_COLUMNS[frac_name]
     scale = 100.0 if names[index[frac_name]][1] else 1.0
@@ -607,7 +676,7 @@ def read_table(path: str, spec: str | None = None) -> SizeDistribution:
         for i, r in data:
             if k >= len(r):
                 raise InputError(f"{spec} line {i}: {name} missing")
-            out.append(_number(r[k], f"{spec} line {i}: {name}"))
+            out.append(_number(r[k], f"{spec} line {i}: {name}", decimal_comma=delimiter != ","))
         return np.array(out)
 
     lines_no = [i for i, _ in data]
@@ -631,15 +700,22 @@ def read_table(path: str, spec: str | None = None) -> SizeDistribution:
                                  f"{hi[k - 1]:g})")
         if cumulative:
             raise InputError(f"{spec}: column {frac_name} is cumulative: give it with a size column, not bins")
+        largest = float(hi.max())
+        _relative(np.append(lo, largest), [*lines_no, lines_no[int(np.argmax(hi))]], spec, "lower")
+        lo, hi = lo / largest, hi / largest
     else:
         size = column("size")
         for i, d in zip(lines_no, size):
             if d <= 0:
                 raise InputError(f"{spec} line {i}: size={d:g}: must be > 0")
+        descending = size.size > 1 and size[1] < size[0]  # sieve tables list the coarsest first
         for k in range(1, size.size):
-            if size[k] <= size[k - 1]:
-                raise InputError(f"{spec} line {lines_no[k]}: size={size[k]:g}: sizes must increase (previous "
-                                 f"{size[k - 1]:g})")
+            if (size[k] >= size[k - 1]) if descending else (size[k] <= size[k - 1]):
+                raise InputError(f"{spec} line {lines_no[k]}: size={size[k]:g}: sizes must increase or decrease "
+                                 f"throughout (previous {size[k - 1]:g})")
+        if descending:  # read upwards
+            size, frac, lines_no = size[::-1], frac[::-1], lines_no[::-1]
+        size, largest = _relative(size, lines_no, spec, "size")
         if cumulative:
             if size.size < 2:
                 raise InputError(f"{spec}: a cumulative column needs at least 2 sizes")
@@ -662,7 +738,7 @@ def read_table(path: str, spec: str | None = None) -> SizeDistribution:
         raise InputError(f"{spec}: {frac_name} is all zero")
     frac = frac / total
     source = {**_file_source(p), "weighting": weighting, "cumulative": cumulative,
-              "bins": "edges" if has_bins else "sizes"}
+              "bins": "edges" if has_bins else "sizes", "largest_size": largest}
     if has_bins:
         exponent = -4.0 if weighting == "volume" else -1.0
         if weighting == "volume":  # number share = volume share / mean D^3 of the bin (volume uniform in ln D)

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.atomic import atomic_output
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.input_paths import regular_file
 from ..core.packing_io import reject_file, validated_packing
 
 
@@ -40,9 +41,7 @@ def _integer(path, lineno: int, line: str, what: str) -> int:
 
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE, box: float = 1.0) -> Packing:
     """Read a CALiPPSO.jl example-style file; ``box`` is the side L of the periodic cube (not in the file)."""
-    path = Path(path)
-    if not path.is_file():
-        reject_file(path, "no such file")
+    path = regular_file(path, "CALiPPSO.jl file", missing="no such file")
     try:
         lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
     except UnicodeDecodeError:

@@ -19,6 +19,7 @@ import numpy as np
 from ..core.atomic import atomic_output
 from ..core.errors import PackingFileError
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.input_paths import regular_file
 from ..core.packing_io import reject_file, validated_packing
 
 LOG_POSITION = "spherejam/position"
@@ -36,9 +37,7 @@ def _hoomd():
 
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE, frame: int = -1) -> Packing:
     """Read frame ``frame`` (default: the last) of a GSD file as a packing."""
-    path = Path(path)
-    if not path.is_file():
-        reject_file(path, "no such file")
+    path = regular_file(path, "GSD file", missing="no such file")
     hoomd = _hoomd()
     try:
         with hoomd.open(path, "r") as traj:

@@ -24,6 +24,7 @@ from ..core.atomic import atomic_output
 from ..core.container import Container
 from ..core.errors import PackingFileError
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
+from ..core.input_paths import regular_file
 from ..core.packing_io import reject_file, validated_packing
 
 #: Section headers of a LAMMPS data file (a line holding only one of these starts a section).
@@ -35,9 +36,7 @@ _BOUNDS = re.compile(r"^\s*(\S+)\s+(\S+)\s+([xyz])lo\s+[xyz]hi\s*$")
 
 def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLERANCE) -> Packing:
     """Read a LAMMPS data file (atom style sphere) as a 3D packing."""
-    path = Path(path)
-    if not path.is_file():
-        reject_file(path, "no such file")
+    path = regular_file(path, "LAMMPS data file", missing="no such file")
     try:
         lines = path.read_text().splitlines()
     except UnicodeDecodeError:

@@ -25,6 +25,7 @@ import numpy as np
 from ..core.atomic import atomic_folder
 from ..core.errors import PackingFileError
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing, ball_volume
+from ..core.input_paths import regular_file
 from ..core.packing_io import reject_file, validated_packing
 from ..core.validation import BOX_SIDE
 
@@ -76,8 +77,8 @@ def read(path: str | os.PathLike, tolerance: float | None = DEFAULT_OVERLAP_TOLE
     """Read a packing-generation file set (folder, or the path of its ``.xyzd``), with the final diameters."""
     xyzd, nfo, conf = file_set(path)
     for p in (xyzd, conf):
-        if not p.is_file():
-            reject_file(p, "no such file (a packing-generation file set needs packing.xyzd and generation.conf)")
+        regular_file(p, "packing-generation file", missing="no such file (a packing-generation file set needs "
+                     "packing.xyzd and generation.conf)")
     values = _key_values(conf)
     n = _number(conf, values, "Particles count", int)
     sides = _number(conf, values, "Packing size", float, 3)

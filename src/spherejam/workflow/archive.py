@@ -3,19 +3,23 @@ within a size limit, chosen jammed packings, with a README that says what it hol
 
 The archive is a results folder in miniature (the same layout), so ``spherejam browse ARCHIVE/dataset.nc`` with
 ``--tables``, ``--figure`` and ``--packing`` works on it as on the run itself; a packing left out says where it
-was looked for. It is written as a whole (:func:`~spherejam.core.atomic.atomic_folder`): a failed archive leaves
-the old one as it was.
+was looked for. It is written as a whole beside the target and swapped in
+(:func:`~spherejam.core.atomic.replaced_folder`): a failed or killed archive leaves the old one as it was. Only a folder
+that holds exactly what this command wrote (its manifest ``archive.json``) is ever replaced.
 """
 
 from __future__ import annotations
 
 import fnmatch
+import hashlib
+import json
+import logging
 import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.atomic import atomic_folder
+from ..core.atomic import replaced_folder
 from ..core.errors import InputError
 from .dataset import dataset_config, open_dataset, sizes_in
 from .experiment import PACKING_FILES
@@ -92,7 +96,8 @@ def readme(ds, plan: ArchivePlan, command: str, stripped: bool = False) -> str:
         "`comparison.md`" + (", `finite_size.md`" if "tables/finite_size.md" in plan.files else "") + "), "
         f"`figures/` ({', '.join(figures)})" + (", `packings/` (jammed packings, spherejam HDF5"
                                                   + ("; without their run histories" if stripped else "") + ")"
-                                                  if n_packings else "") + ".",
+                                                  if n_packings else "") + ". `archive.json` lists every file "
+        "with its SHA-256: `spherejam archive` replaces this folder only while it holds exactly those files.",
         "",
         "Look at it without running anything:",
         "",
@@ -124,46 +129,116 @@ def _size(folder: Path) -> int:
     return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
 
 
+#: The manifest an archive holds: every file the archive command wrote, with its SHA-256. It is how an existing folder
+#: is recognised as an archive that may be replaced; nothing else is (docs/robustness.md, "Replacing a folder").
+MANIFEST = "archive.json"
+MANIFEST_FORMAT = "spherejam-archive-1"
+_OUTPUT = "-o/--output"
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def archive_target(out: str | os.PathLike, results: str | os.PathLike) -> Path:
+    """The folder ``-o`` names (a symlink followed), checked before anything is read or written: not empty, not the
+    results folder or a folder holding it, and either missing or an archive this command wrote, unchanged since
+    (:func:`check_replaceable`). Raises :class:`InputError` naming the option."""
+    text = os.fspath(out)
+    if text.strip() == "":
+        raise InputError(f"{_OUTPUT}={text!r}: an empty path")
+    target = Path(os.path.realpath(text))
+    if target.parent == target:
+        raise InputError(f"{_OUTPUT}={text!r}: the root folder cannot be an archive")
+    source = Path(os.path.realpath(results))
+    if target == source or target in source.parents:
+        raise InputError(f"{_OUTPUT}={text!r}: is the results folder {results} or holds it; an archive is written "
+                         "beside the run, choose another folder")
+    if os.path.lexists(target):
+        if not target.is_dir():
+            raise InputError(f"{_OUTPUT}={text!r}: exists and is not a folder")
+        check_replaceable(target, text)
+    ancestor = target.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir() or not os.access(ancestor, os.W_OK | os.X_OK):
+        raise InputError(f"{_OUTPUT}={text!r}: folder {ancestor} is not writable")
+    return target
+
+
+def check_replaceable(folder: Path, text: str) -> None:
+    """Refuse (one line, :class:`InputError`) unless ``folder`` holds exactly the files its archive manifest lists,
+    each with the content the archive command wrote: a user's folder, another results run, or an archive with a note
+    added or a file edited is never replaced."""
+    refuse = f"{_OUTPUT}={text!r}: exists and"
+    manifest = folder / MANIFEST
+    try:
+        data = json.loads(manifest.read_text()) if manifest.is_file() and not manifest.is_symlink() else None
+    except (OSError, ValueError):
+        data = None
+    if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT or not isinstance(data.get("files"), dict):
+        raise InputError(f"{refuse} is not a spherejam archive (no {MANIFEST} written by spherejam archive); nothing "
+                         "replaced: choose a new folder")
+    listed = data["files"]
+    folders = {str(Path(name).parent) for name in listed} | {"."}
+    folders |= {str(parent) for name in listed for parent in Path(name).parents}
+    for root, dirs, files in os.walk(folder):
+        rel_root = Path(root).relative_to(folder)
+        for name in sorted(dirs):
+            rel = rel_root / name
+            if (folder / rel).is_symlink() or str(rel) not in folders:
+                raise InputError(f"{refuse} holds {rel}/, which spherejam archive did not write; nothing replaced: "
+                                 "move it out or choose a new folder")
+        for name in sorted(files):
+            rel = str(rel_root / name)
+            if rel == MANIFEST:
+                continue
+            path = folder / rel
+            if rel not in listed or path.is_symlink() or not path.is_file():
+                raise InputError(f"{refuse} holds {rel}, which spherejam archive did not write; nothing replaced: "
+                                 "move it out or choose a new folder")
+            if _sha256(path) != listed[rel]:
+                raise InputError(f"{refuse} its {rel} was changed since spherejam archive wrote it; nothing "
+                                 "replaced: move it out or choose a new folder")
+
+
 def write_archive(results: str | os.PathLike, out: str | os.PathLike, packings: list[str] = (),
                   stages: tuple[str, ...] = ("jammed",), max_mb: float = 20.0, command: str = "spherejam archive",
                   strip_history: bool = False) -> ArchivePlan:
-    """Copy :func:`plan_archive` of ``results`` to the folder ``out`` (replacing an archive there as a whole), with
-    its README.md; ``strip_history`` leaves the run histories out of the packing files. Refuses one larger than
+    """Copy :func:`plan_archive` of ``results`` to the folder ``out``, with its README.md and manifest
+    (:data:`MANIFEST`); ``strip_history`` leaves the run histories out of the packing files. An existing ``out`` is
+    replaced as a whole, and only if it is an archive this command wrote (:func:`archive_target`), by exchanging it
+    with the new one built beside it (:func:`~spherejam.core.atomic.replaced_folder`). Refuses one larger than
     ``max_mb`` megabytes, leaving an archive already there as it was."""
+    target = archive_target(out, results)
     plan = plan_archive(results, list(packings), stages)
     if plan.size > max_mb * 1e6 and not strip_history:  # stripped, the size is known once written
         raise InputError(f"--max-mb={max_mb:g}: the archive would hold {plan.size / 1e6:.1f} MB; choose fewer "
                          "--packings (or raise the limit)")
     ds = open_dataset(Path(results) / "dataset.nc")
     text = readme(ds, plan, command, strip_history)
-    names = [*plan.files, "README.md"]
-    out = Path(out)
-    old = None
-    if out.exists():  # replaced as a whole, so that no file of an older archive lingers
-        if not (out / "dataset.nc").is_file():
-            raise InputError(f"output={out}: exists and is not an archive (no dataset.nc); choose a new folder")
-        old = out.with_name(f".{out.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        os.rename(out, old)
-    try:
-        with atomic_folder(out, names) as tmp:  # out is missing now: the new archive appears in one rename
-            for name, source in plan.files.items():
-                (tmp / name).parent.mkdir(parents=True, exist_ok=True)
-                if strip_history and name.startswith("packings/") and name.endswith(".h5"):
-                    copy_without_history(source, tmp / name)
-                else:
-                    shutil.copy2(source, tmp / name)
-            (tmp / "README.md").write_text(text)
-            if _size(tmp) > max_mb * 1e6:
-                raise InputError(f"--max-mb={max_mb:g}: the archive would hold {_size(tmp) / 1e6:.1f} MB; choose "
-                                 "fewer --packings (or raise the limit)")
-    except BaseException:
-        if old is not None:
-            os.rename(old, out)
-        raise
-    if old is not None:
-        shutil.rmtree(old)
+    with replaced_folder(target) as tmp:
+        logging.getLogger("spherejam").info("%s: copying %d files (%.1f MB) into %s", out, len(plan.files),
+                                            plan.size / 1e6, tmp.name)
+        for name, source in plan.files.items():
+            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+            if strip_history and name.startswith("packings/") and name.endswith(".h5"):
+                copy_without_history(source, tmp / name)
+            else:
+                shutil.copy2(source, tmp / name)
+        (tmp / "README.md").write_text(text)
+        if _size(tmp) > max_mb * 1e6:
+            raise InputError(f"--max-mb={max_mb:g}: the archive would hold {_size(tmp) / 1e6:.1f} MB; choose "
+                             "fewer --packings (or raise the limit)")
+        files = {str(p.relative_to(tmp)): _sha256(p) for p in sorted(tmp.rglob("*")) if p.is_file()}
+        (tmp / MANIFEST).write_text(json.dumps({"format": MANIFEST_FORMAT, "command": command, "files": files},
+                                               indent=1) + "\n")
     return plan
 
 
-__all__ = ["ArchivePlan", "plan_archive", "readme", "write_archive"]
+__all__ = ["MANIFEST", "ArchivePlan", "archive_target", "check_replaceable", "plan_archive", "readme",
+           "write_archive"]

@@ -133,10 +133,19 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def load_config_file(path: str | os.PathLike) -> Any:
-    """A YAML config file, read as ``yaml.safe_load`` does, but a mapping that repeats a key is refused (one line
-    naming the file, line and key): YAML loaders keep the last value silently, so a typo'd copy would win."""
+def load_config_file(path: str | os.PathLike, field: str | None = None, empty_ok: bool = True) -> dict | None:
+    """A YAML config file, the one loader of every command that reads one (``spherejam cost``, ``rcp --template``,
+    the cost model): read as ``yaml.safe_load`` does, but a mapping that repeats a key is refused (YAML loaders keep
+    the last value silently, so a typo'd copy would win), and so is anything that is not a mapping of keys to values.
+    Every problem is one :class:`InputError` naming ``field`` (the option, if the path came from one) and the file:
+    a missing or special file (a FIFO would block), invalid YAML, a file that is not UTF-8 text, a list or a scalar,
+    and with ``empty_ok`` false an empty file. Returns the mapping (None for an empty file)."""
     import yaml
+
+    from ..core.input_paths import regular_file
+
+    where = f"{field}={str(path)!r}" if field else str(path)
+    regular_file(path, "config file", error=InputError, missing="no such config file")
 
     class StrictLoader(yaml.SafeLoader):
         pass
@@ -148,14 +157,25 @@ def load_config_file(path: str | os.PathLike) -> Any:
                 continue
             key = loader.construct_object(key_node, deep=True)
             if key in seen:
-                raise InputError(f"{path}: line {key_node.start_mark.line + 1}: key {key!r} is given twice (the "
+                raise InputError(f"{where}: line {key_node.start_mark.line + 1}: key {key!r} is given twice (the "
                                  "last would silently win); keep one")
             seen.add(key)
         return loader.construct_mapping(node, deep=True)
 
     StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
-    with open(path) as fh:
-        return yaml.load(fh, Loader=StrictLoader)  # noqa: S506 - a SafeLoader subclass
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = yaml.load(fh, Loader=StrictLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        raise InputError(f"{where}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not a UTF-8 text file (byte {exc.start})") from None
+    if data is None and not empty_ok:
+        raise InputError(f"{where}: an empty file; a config is a mapping of keys to values")
+    if not isinstance(data, (dict, type(None))):
+        raise InputError(f"{where}: a config is a mapping of keys to values, this file holds a "
+                         f"{type(data).__name__}")
+    return data
 
 
 def validate_config(config: dict, schema_path: str | os.PathLike) -> dict:

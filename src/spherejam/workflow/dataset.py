@@ -30,6 +30,7 @@ import numpy as np
 
 from ..core.atomic import atomic_output
 from ..core.errors import InputError, PackingFileError
+from ..core.input_paths import regular_file
 from ..core.packing_io import FORMAT, dumps
 from ..core.provenance import provenance
 from ..engines.result import RunStats, stats_from_metadata
@@ -96,8 +97,7 @@ def _attrs(path: Path) -> dict[str, Any]:
     """The scalar attributes of a packing file (not its arrays: those were validated when written)."""
     import h5py
 
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    regular_file(path, "packing file", missing="no such file (the workflow should have produced it)")
     try:
         with h5py.File(path, "r") as f:
             a = dict(f.attrs)
@@ -161,16 +161,30 @@ def _mls_scalars(path: Path, prefix: str = "") -> dict[str, float]:
 
 
 def _json_scalars(path: Path, prefix: str) -> dict[str, float]:
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such file (the workflow should have produced it)")
+    regular_file(path, "JSON file", missing="no such file (the workflow should have produced it)")
     try:
         data = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise PackingFileError(f"{path}: corrupt JSON ({exc})") from None
-    flat = data.get("scalars", data)
+    flat = data.get("scalars", data) if isinstance(data, dict) else data
+    if not isinstance(flat, dict):
+        raise PackingFileError(f"{path}: a JSON {type(flat).__name__}; expected an object of the packing's scalars")
     if not prefix:  # an analysis file written before the rename
         flat = {RENAMED.get(k, k): v for k, v in flat.items()}
+    # every variable the dataset takes from the file is a number (null: not estimable); anything else would become
+    # NaN without a word. Other entries (paths, the packing's description, scans) are not read.
+    names = _structure_variables()
+    known = {k.removeprefix(prefix) for k in names if k.startswith(prefix)} if prefix else {
+        k for k in names if not k.startswith("calippso_")}
+    for key, value in flat.items():
+        if key in known and not (value is None or isinstance(value, (int, float, bool))):
+            raise PackingFileError(f"{path}: {key}={_short_json(value)}: must be a number (or null)")
     return {f"{prefix}{k}": _num(v) for k, v in flat.items() if isinstance(v, (int, float, bool)) or v is None}
+
+
+def _short_json(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], list[dict[str, float]]]:
@@ -183,8 +197,21 @@ def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], 
             row.update(_json_scalars(exp.path(run, "structure"), ""))
         if exp.config.get("calippso", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "calippso"), "calippso_"))
+            _no_certificate_without_forces(row)
         rows.append(row)
     return runs, rows
+
+
+def _no_certificate_without_forces(row: dict[str, float]) -> None:
+    """A row's CALiPPSO verdict by the run's own rule (:func:`~spherejam.calippso.run.has_force_network`): a
+    summary written before that rule, "converged" with no contact or an infinite force balance, is not certified."""
+    from ..calippso.run import has_force_network
+
+    if row.get("calippso_converged") == 1 and not has_force_network(row.get("calippso_n_contacts", math.nan),
+                                                                      row.get("calippso_force_balance_residual",
+                                                                              math.nan)):
+        row["calippso_converged"] = 0.0
+        row["calippso_is_isostatic"] = 0.0
 
 
 def collect_grid(exp: Experiment, part: Part | None = None) -> tuple[list[GridRun], list[dict[str, float]]]:
@@ -313,7 +340,7 @@ def build_dataset(manifest_path: str | os.PathLike, sizes=None, dists=None):
     (N) or ``dists`` (distribution keys), the dataset of that part of it (:func:`merge_datasets` joins parts)."""
     import xarray as xr
 
-    manifest_path = Path(manifest_path)
+    manifest_path = regular_file(manifest_path, "manifest file")
     try:
         manifest = json.loads(manifest_path.read_text())
     except (OSError, ValueError) as exc:  # ValueError: bad JSON, or a binary file (UnicodeDecodeError)
@@ -567,11 +594,7 @@ def open_dataset(path: str | os.PathLike):
     """Load a results dataset fully into memory, with a clear error for a missing or foreign file."""
     import xarray as xr
 
-    path = Path(path)
-    if not path.exists():
-        raise PackingFileError(f"{path}: no such dataset")
-    if path.is_dir():
-        raise PackingFileError(f"{path}: is a directory, not a dataset file")
+    path = regular_file(path, "dataset file", missing="no such dataset")
     _refuse_packing_file(path)
     try:
         with warnings.catch_warnings():  # the backends' warnings about foreign files come before our one line

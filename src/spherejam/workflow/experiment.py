@@ -421,6 +421,11 @@ class Experiment:
                 if fixed is not None and self.sizes != [fixed]:
                     raise InputError(f"distributions.{d.key}={d.spec!r}: holds {fixed} diameters, n = "
                                      f"{config['n']}: set n to the list's length")
+                for n in self.sizes:  # every N it is drawn at, so that no job fails for it later
+                    try:
+                        d.model().check_n(n)
+                    except InputError as exc:
+                        raise InputError(f"distributions.{d.key}: {exc}") from None
         self.paths = Paths(self.results, self.n_ladder)
         for p in PROTOCOLS:
             check_distinct_paths(self.rates[p], f"{p}.rates")

@@ -119,6 +119,13 @@ def not_estimable(n: int, why: str = "") -> str:
     return f"not estimable (n = {n}{', ' + why if why else ''})"
 
 
+#: Table 2's status where a distribution has no slow packings at an N (a config may have a slow series at some N
+#: only, as the reproduction ladder: none at N = 500): nothing is fitted, the fast packings are no slow series.
+NO_SLOW_SERIES = "no slow series at this N"
+#: Where a value is the paper's rather than ours (the monodisperse phi_GCP): said in its cell, with no difference.
+TAKEN_FROM_PAPER = "taken from the paper, not measured"
+
+
 def paper_row(frame: pd.DataFrame, sigma: float, **match) -> pd.Series | None:
     sel = np.isclose(frame.sigma.values.astype(float), sigma)
     for key, value in match.items():
@@ -140,6 +147,7 @@ def table2(ds) -> pd.DataFrame:
     min_points = max(int(cfg["min_points"]), N_COEFFICIENTS + 1)
     max_half = cfg.get("max_half_width")
     paper = paper_reference.table2()
+    fast = {**FAST_DEFAULTS, **dataset_config(ds).get("fast", {})}
     df = _frame(ds)
     named = _has_named(df)
     rows = []
@@ -147,28 +155,17 @@ def table2(ds) -> pd.DataFrame:
         for group in _groups(df):
             if group["delta"] == 0:
                 continue  # the paper does not fit sigma = 0 (crystallisation); Table 4 takes 0.65
-            sub = df[(df.protocol == protocol) & (df.distribution == group["distribution"])]
+            # the slow series only: a fast packing (Table 3's band) is not a point of the extrapolation to gamma -> 0
+            sub = df[(df.protocol == protocol) & (df.distribution == group["distribution"])
+                     & (df.inverse_rate >= fast[f"{protocol}_max_inverse_rate"])]
             row = {"curve": label, "protocol": protocol, "variable": var, **_start(group, named),
                    "phi_gcp": math.nan, "half_width": math.nan, "status": ""}
             n_avail = int(np.isfinite(sub[var]).sum())
-            try:
-                fit = fit_gcp(sub.rate.values, sub[var].values, int(cfg[key]), float(cfg["confidence"]))
-            except InputError:
-                row.update(n_points=n_avail, status=not_estimable(n_avail))
+            if n_avail == 0:
+                row.update(n_points=0, status=NO_SLOW_SERIES)
             else:
-                c = fit.coefficients
-                row.update(
-                    n_points=fit.n_points, min_inverse_rate=fit.min_inverse_rate, c0=c[0], c1=c[1], c2=c[2], c3=c[3],
-                    phi_gcp_fit=fit.phi_gcp, half_width_fit=fit.half_width,
-                )
-                if fit.n_points < min_points:
-                    row["status"] = not_estimable(fit.n_points, f"fewer than {min_points} points")
-                elif not math.isfinite(fit.half_width):
-                    row["status"] = not_estimable(fit.n_points, "no confidence interval")
-                elif max_half is not None and fit.half_width > float(max_half):
-                    row["status"] = not_estimable(fit.n_points, f"half-width {fit.half_width:.2g} > {max_half:g}")
-                else:
-                    row.update(phi_gcp=fit.phi_gcp, half_width=fit.half_width)
+                _fit_row(row, sub.rate.values, sub[var].values, int(cfg[key]), float(cfg["confidence"]), min_points,
+                         max_half, n_avail)
             ref = paper_row(paper, group["paper_sigma"], method=label)
             row["paper_phi_gcp"] = float(ref.phi_GCP) if ref is not None else math.nan
             row["paper_half_width"] = float(ref.ci_half_width) if ref is not None else math.nan
@@ -178,6 +175,29 @@ def table2(ds) -> pd.DataFrame:
     out = pd.DataFrame(rows, columns=TABLE2_COLUMNS) if not rows else pd.DataFrame(rows)
     out["estimable"] = out.status == ""
     return out
+
+
+def _fit_row(row: dict, rate, phi, n_slowest: int, confidence: float, min_points: int, max_half, n_avail: int
+             ) -> None:
+    """One Table 2 cell: the cubic fit of the slowest ``n_slowest`` packings, or why it is not estimable."""
+    try:
+        fit = fit_gcp(rate, phi, n_slowest, confidence)
+    except InputError:
+        row.update(n_points=n_avail, status=not_estimable(n_avail))
+        return
+    c = fit.coefficients
+    row.update(
+        n_points=fit.n_points, min_inverse_rate=fit.min_inverse_rate, c0=c[0], c1=c[1], c2=c[2], c3=c[3],
+        phi_gcp_fit=fit.phi_gcp, half_width_fit=fit.half_width,
+    )
+    if fit.n_points < min_points:
+        row["status"] = not_estimable(fit.n_points, f"fewer than {min_points} points")
+    elif not math.isfinite(fit.half_width):
+        row["status"] = not_estimable(fit.n_points, "no confidence interval")
+    elif max_half is not None and fit.half_width > float(max_half):
+        row["status"] = not_estimable(fit.n_points, f"half-width {fit.half_width:.2g} > {max_half:g}")
+    else:
+        row.update(phi_gcp=fit.phi_gcp, half_width=fit.half_width)
 
 
 def table3(ds) -> pd.DataFrame:
@@ -261,6 +281,7 @@ def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -
             row["phi_GCP"], row["phi_GCP_half_width"], n_fits = _mean_with_half_width(
                 zip(cells.phi_gcp, cells.half_width)) if len(cells) else (math.nan, math.nan, 0)
         row["gcp_fits_averaged"] = n_fits
+        row["phi_GCP_source"] = "paper" if mono else "measured"  # the monodisperse phi_GCP is the paper's constant
         row["gcp_below_rcp"] = bool(not mono and row["phi_GCP"] < row["phi_RCP"])
         match = paper.index[np.isclose(paper.index.values, sigma)]
         for col in ("phi_LT", "phi_RCP", "phi_GCP"):
@@ -269,6 +290,8 @@ def table4(ds, t2: pd.DataFrame | None = None, t3: pd.DataFrame | None = None) -
             row[f"{col}_paper_derived"] = bool(ref[f"{col}_derived"]) if ref is not None else False
             row[f"{col}_minus_paper"], row[f"{col}_minus_paper_in_half_widths"] = _compare(
                 row[col], row[f"{col}_half_width"], row[f"{col}_paper"])
+        if mono:  # no difference between the paper's value and itself
+            row["phi_GCP_minus_paper"] = row["phi_GCP_minus_paper_in_half_widths"] = math.nan
         row["_psd"] = group["psd"]
         rows.append(row)
     return _with_models(pd.DataFrame(rows))
@@ -398,9 +421,10 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
         rows = []
         for _, r in t.iterrows():
             for col, label in (("phi_LT", "φ_LT"), ("phi_RCP", "φ_RCP"), ("phi_GCP", "φ_GCP")):
+                taken = col == "phi_GCP" and _taken_from_paper(r)
                 rows.append({
                     idx: _label(r), **_n_cells(r), "quantity": label,
-                    "ours": _pm(r[col], r[f"{col}_half_width"]),
+                    "ours": f"{_fmt(r[col])} ({TAKEN_FROM_PAPER})" if taken else _pm(r[col], r[f"{col}_half_width"]),
                     "paper": _fmt(r[f"{col}_paper"]) + (" *" if r[f"{col}_paper_derived"] else ""),
                     "ours − paper": _signed(r[f"{col}_minus_paper"]),
                     "(ours − paper) / half-width": _ratio(r[f"{col}_minus_paper_in_half_widths"]),
@@ -408,6 +432,11 @@ def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataF
                 })
         return pd.DataFrame(rows).set_index(idx) if rows else pd.DataFrame()
     raise InputError(f"table={name!r}: must be table2, table3 or table4")
+
+
+def _taken_from_paper(r) -> bool:
+    """The row's phi_GCP is the paper's constant (a monodisperse distribution), not a fit of ours."""
+    return r.get("phi_GCP_source", "measured") == "paper"
 
 
 def _where(r) -> dict:
@@ -442,7 +471,8 @@ def comparison(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
                          "ours": r[col], "half_width": r[f"{col}_half_width"], "paper": r[f"{col}_paper"],
                          "paper_derived": r[f"{col}_paper_derived"], "ours_minus_paper": r[f"{col}_minus_paper"],
                          "minus_paper_in_half_widths": r[f"{col}_minus_paper_in_half_widths"],
-                         "note": GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else ""})
+                         "note": TAKEN_FROM_PAPER if col == "phi_GCP" and _taken_from_paper(r) else
+                         GCP_BELOW_RCP if col == "phi_GCP" and r.gcp_below_rcp else ""})
     return pd.DataFrame(rows)
 
 
