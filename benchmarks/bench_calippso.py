@@ -11,9 +11,10 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][-warm][+cg][/schedule][@max_lps]`` (``auto``: run_calippso's default;
+A path is ``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` (``auto``: run_calippso's default;
 ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md §5.7, so that
-``--paths auto auto+cg`` times today's path and constraint generation side by side; ``/reference``: the reference's
+``--paths auto auto+cg`` times today's path and constraint generation side by side; ``+interior``: intermediate steps
+from the interior point, docs/calippso.md §10; ``/reference``: the reference's
 bounds schedule, docs/calippso.md §10, so that ``--paths auto auto/reference --table`` is the trajectory A/B, each
 path's certificate checked on its own by the issue's validity criteria and its LPs and CPU printed as ratios to the
 first path's): ``ipx+crossover`` is the old
@@ -96,16 +97,20 @@ TARGETS = {1024: 2.0, 10_000: 300.0, 16384: 1800.0}
 #: Today's path of ``--baseline``: the package before the active-set solve pivoted on bounds (issue 30).
 BASELINE_REF = "8725c3c"
 #: One letter per LP method in the ``--table`` solver path.
-METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "vertex": "V", "predicted": "P"}
+METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "vertex": "V", "predicted": "P",
+                  "interior": "i"}
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][-warm][+cg][/schedule][@max_lps]`` -> run_calippso keyword arguments (``-warm``:
+    """``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` -> run_calippso keyword
+    arguments (``+interior``: intermediate steps from the interior point; ``-warm``:
     no warm starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7; ``/schedule``: the
     bounds schedule, ``adaptive`` or ``reference``, docs/calippso.md §10)."""
     text, _, max_lps = text.partition("@")
     text, _, schedule = text.partition("/")
     kw = {"schedule": schedule} if schedule else {}
+    if text.endswith("+interior"):
+        text, kw["interior_steps"] = text.removesuffix("+interior"), True
     if text.endswith("+cg"):
         text, kw["constraint_generation"] = text.removesuffix("+cg"), True
     if text.endswith("-warm"):

@@ -48,6 +48,9 @@ MAX_OVERLAP_CORRECTION = 1e-8
 CHECKPOINT_KIND = "calippso"
 #: Why a run stopped: both tolerances met, or the iteration cap reached first.
 STOP_REASONS = ("converged", "max_iterations")
+#: With ``interior_steps``, an LP whose previous sqrt(Gamma) - 1 exceeds this is an intermediate step taken from the
+#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10).
+INTERIOR_STEP_MIN = 1e-9
 #: Parameters a resumed run may change (the same trajectory): they do not enter the checkpoint's fingerprint.
 RESUMABLE_CHANGES = ("max_iterations", "threads")
 
@@ -235,6 +238,7 @@ def run_calippso(
     crossover: bool | None = None,
     constraint_generation: bool = False,
     schedule: str = "adaptive",
+    interior_steps: bool = False,
     lp_log: str | Path | None = None,
 ) -> CalippsoResult:
     """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
@@ -310,6 +314,11 @@ def run_calippso(
         The bounds schedule (docs §10): "adaptive" (the default; the first regime from the input's gaps, a bound
         that stops a stable particle widened, docs §1.5-§1.6) or "reference" (CALiPPSO.jl's: a loose regime-1 first
         LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening).
+    interior_steps : bool
+        Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
+        interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
+        and the overlap guard of docs §1.8 applies); the LPs below it, the convergence test and the force LP take
+        vertices as before (docs §10). Off (the default): every LP is a vertex.
     lp_log : path or None
         Write the per-LP record there as CSV (:mod:`.lp_log`, docs §10), one row appended and flushed per LP;
         a resumed run rewrites it from its checkpoint's history first. Not part of the checkpoint's fingerprint.
@@ -323,7 +332,7 @@ def run_calippso(
     if not report.ok:
         raise OverlapError(f"CALiPPSO input: {report}")
     cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-                    threads, crossover, active_set, warm_start, constraint_generation, schedule)
+                    threads, crossover, active_set, warm_start, constraint_generation, schedule, interior_steps)
     run = _Run.start(packing, cfg, initial_sqrt_inflation)
     parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
                              displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
@@ -345,7 +354,8 @@ def run_calippso(
 
 
 def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-              threads, crossover, active_set, warm_start, constraint_generation, schedule) -> _Settings:
+              threads, crossover, active_set, warm_start, constraint_generation, schedule,
+              interior_steps=False) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
     n = packing.n
@@ -355,7 +365,7 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_to
         s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
         solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver, threads=int(threads),
         crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
-        constraint_generation=bool(constraint_generation), schedule=schedule,
+        constraint_generation=bool(constraint_generation), schedule=schedule, interior_steps=bool(interior_steps),
         warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
     )
 
@@ -372,6 +382,7 @@ def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, i
         "fine_tune": bool(fine_tune), "active_set": cfg.active_set, "warm_start": bool(warm_start),
         "solver": cfg.solver, "threads": cfg.threads, "crossover": cfg.crossover,
         "constraint_generation": cfg.constraint_generation, "schedule": cfg.schedule,
+        "interior_steps": cfg.interior_steps,
         "highs_version": highs_version(),
     }
 
@@ -452,7 +463,8 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
     while run.iteration < max_iterations:
         sqrt_inflation, max_s = _iteration(run, cfg, progress)
         log.append({k: run.history.last(k) for k in run.history.as_arrays()}, run.iteration)
-        if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
+        vertex = run.last[1].method_name != "interior"  # an interior step's s is no vertex's: never converged on
+        if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             return True
         if ckpt.due():
             run.save(ckpt)
@@ -525,6 +537,7 @@ class _Settings:
     warm_start: bool
     constraint_generation: bool
     schedule: str  # the bounds schedule (schedule.SCHEDULES)
+    interior_steps: bool  # intermediate LPs stepped from their interior point (docs §10)
 
 
 @dataclass
@@ -586,6 +599,11 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     """Solve: the previous contact network certified by the active-set solve where no warm start is at hand
     (docs §5.4), else HiGHS, warm-started from the previous basis with a back-off after failures (docs §5.1-§5.3)."""
     sol = None
+    if cfg.interior_steps and loop.sqrt_inflation_prev - 1.0 > INTERIOR_STEP_MIN:  # docs §10
+        return solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
+                        inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
+                        options=cfg.solver_options, iteration=iteration, solver=cfg.solver, threads=cfg.threads,
+                        crossover=cfg.crossover, interior=True)
     # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
     # shortcut only when there is no basis to start from
     if loop.predicted is not None and (loop.basis is None or lp.regime == 1):
@@ -649,7 +667,10 @@ def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
                                                                  cfg.dim, cfg.zero_force)
     network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
     loop.predicted = None
-    if cfg.active_set and isostatic:
+    if sol.method_name == "interior":
+        # an interior point's duals are no vertex's: nothing to predict from, and no basis to warm-start from
+        loop.basis = None
+    elif cfg.active_set and isostatic:
         loop.predicted = (*network, None)
     elif cfg.active_set:
         loop.predicted = vertex_prediction(contact, sol.duals, sol.s, lp.s_bound, lp.rij, lp.pi, lp.pj, cfg.n,

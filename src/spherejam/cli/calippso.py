@@ -41,6 +41,9 @@ def register(sub) -> None:
                    help="bounds schedule: adaptive (default: first regime from the input's gaps, a bound that stops "
                         "a stable particle widened) or reference (CALiPPSO.jl's: a loose first LP, the regimes of "
                         "the previous sqrt(Gamma) alone, no widening); docs/calippso.md 10")
+    p.add_argument("--interior-steps", action="store_true",
+                   help="step from the interior point (no vertex, no crossover) while sqrt(Gamma)-1 > 1e-9; the "
+                        "final LPs and the force LP take vertices (docs/calippso.md 10)")
     p.add_argument("--lp-log", type=output_file, default=None,
                    help="write one CSV row per LP here (sqrt(Gamma)-1, max |s|, bounds, contacts gained and lost, "
                         "solver path, CPU and wall s), flushed after each LP; a resumed run rewrites it from its "
@@ -71,7 +74,7 @@ def _calippso(args) -> int:
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
         crossover=args.crossover, constraint_generation=args.constraint_generation, schedule=args.schedule,
-        lp_log=args.lp_log,
+        interior_steps=args.interior_steps, lp_log=args.lp_log,
     ))
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.completed:
