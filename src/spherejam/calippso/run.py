@@ -355,7 +355,7 @@ def run_calippso(
 
 def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
               threads, crossover, active_set, warm_start, constraint_generation, schedule,
-              interior_steps=False) -> _Settings:
+              interior_steps) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
     n = packing.n
