@@ -11,16 +11,19 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][-warm][+cg][@max_lps]`` (``auto``: run_calippso's default; ``-warm``: no
-warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md §5.7, so that
-``--paths auto auto+cg`` times today's path and constraint generation side by side): ``ipx+crossover`` is the old
-path (IPX interior point, HiGHS crossover), ``hipo`` the new path (HiPO interior point, its vertex certified by the
-active-set solve, crossover only as the fallback; ``solver="auto"`` takes it from N = 4096 on). The first path listed is
-the reference: every other path must give the same contact network, the same rattlers and force balance <= 1e-10
-(printed as "agree"). Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no
-figure), per LP and in total.
-``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times are then
-compared with the same LPs of the other paths, not its total).
+A path is ``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` (``auto``: run_calippso's
+default; ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md
+§5.7, so that ``--paths auto auto+cg`` times today's path and constraint generation side by side; ``+interior``:
+intermediate steps from the interior point, docs/calippso.md §10; ``/reference``: the reference's bounds schedule,
+docs/calippso.md §10, so that ``--paths auto auto/reference --table`` is the trajectory A/B, each path's certificate
+checked on its own by the issue's validity criteria and its LPs and CPU printed as ratios to the first path's):
+``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover), ``hipo`` the new path (HiPO interior point,
+its vertex certified by the active-set solve, crossover only as the fallback; ``solver="auto"`` takes it from N = 4096
+on). The first path listed is the reference: every other path must give the same contact network, the same rattlers
+and force balance <= 1e-10 (printed as "agree"; a path that changes the trajectory may end on another valid state).
+Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and
+in total. ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times
+are then compared with the same LPs of the other paths, not its total).
 
 ``--baseline REF`` runs every path twice, side by side in one run: with today's package (this checkout) and with
 the package as it was at git revision REF (exported by ``git archive`` into a temporary folder and run in a child
@@ -93,14 +96,20 @@ TARGETS = {1024: 2.0, 10_000: 300.0, 16384: 1800.0}
 #: Today's path of ``--baseline``: the package before the active-set solve pivoted on bounds (issue 30).
 BASELINE_REF = "8725c3c"
 #: One letter per LP method in the ``--table`` solver path.
-METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "vertex": "V", "predicted": "P"}
+METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "vertex": "V", "predicted": "P",
+                  "interior": "i"}
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][-warm][+cg][@max_lps]`` -> run_calippso keyword arguments (``-warm``: no warm
-    starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7)."""
+    """``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` -> run_calippso keyword
+    arguments (``+interior``: intermediate steps from the interior point; ``-warm``:
+    no warm starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7; ``/schedule``: the
+    bounds schedule, ``adaptive`` or ``reference``, docs/calippso.md §10)."""
     text, _, max_lps = text.partition("@")
-    kw = {}
+    text, _, schedule = text.partition("/")
+    kw = {"schedule": schedule} if schedule else {}
+    if text.endswith("+interior"):
+        text, kw["interior_steps"] = text.removesuffix("+interior"), True
     if text.endswith("+cg"):
         text, kw["constraint_generation"] = text.removesuffix("+cg"), True
     if text.endswith("-warm"):
@@ -235,15 +244,35 @@ def report(label: str, start: Packing, cert: Certificate) -> None:
               f"{MEAN_FIELD_THETA_E})")
 
 
-TABLE_HEAD = ("| input | N | code | LPs | CPU s | CPU s / LP | solver path per LP | contacts | rattlers | isostatic "
-              "| force balance |\n|---|---|---|---|---|---|---|---|---|---|---|")
+TABLE_HEAD = ("| input | N | code | LPs | CPU s | CPU s / LP | LPs, CPU / first path's | solver path per LP | "
+              "contacts | rattlers | phi_J - first path's | isostatic | force balance | valid |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 
-def table_row(label: str, n: int, code: str, cert: Certificate) -> str:
+def validity(cert) -> tuple[bool, str]:
+    """The issue's validity of a certificate, on its own: converged under the unchanged criteria (sqrt(Gamma) - 1 <=
+    1e-12 and max |s| <= 1e-9 over stable particles at the last LP), isostatic, force balance <= 1e-10, no overlap
+    (worst relative overlap <= 1e-10). Returns (valid, the failed criteria)."""
+    h = cert.history
+    failed = [name for name, ok in (
+        ("converged", bool(cert.completed) and h["sqrt_inflation_minus_1"][-1] <= 1e-12
+         and h["max_displacement"][-1] <= 1e-9),
+        ("isostatic", bool(cert.isostatic)),
+        ("force balance", cert.force_balance_residual <= 1e-10),
+        ("overlap", cert.counters.get("worst_overlap", math.inf) <= 1e-10)) if not ok]
+    return not failed, ", ".join(failed)
+
+
+def table_row(label: str, n: int, code: str, cert: Certificate, first: Certificate | None = None) -> str:
     lps = cert.iterations + (1 if cert.counters.get("fine_tuned") else 0)
+    ok, failed = validity(cert)
+    ratios = dphi = "(first)"
+    if first is not None:
+        ratios = f"{cert.iterations / first.iterations:.2f}, {cert.cpu / first.cpu:.2f}"
+        dphi = f"{cert.phi - first.phi:.1e}"
     return (f"| {label} | {n} | {code} | {cert.iterations} + 1 | {cert.cpu:.1f} | {cert.cpu / max(lps, 1):.2f} | "
-            f"{cert.solver_path()} | {cert.n_contacts} | {cert.n_rattlers} | {cert.isostatic} | "
-            f"{cert.force_balance_residual:.1e} |")
+            f"{ratios} | {cert.solver_path()} | {cert.n_contacts} | {cert.n_rattlers} | {dphi} | {cert.isostatic} | "
+            f"{cert.force_balance_residual:.1e} | {'yes' if ok else 'NO: ' + failed} |")
 
 
 def _by_pair(cert) -> np.ndarray:
@@ -454,6 +483,13 @@ def main(argv=None) -> int:
             target = None
         if target is not None and "max_iterations" not in kw:
             print(f"   issue target <= {target:g} s on one core: {'met' if cert.cpu <= target else 'NOT met'} (CPU s)")
+        ok, failed = validity(cert)
+        print(f"   valid certificate (converged, isostatic, force balance <= 1e-10, no overlap): "
+              f"{'yes' if ok else 'NO (' + failed + ')'}")
+        if results:
+            print(f"   against {args.paths[0]}: LPs {cert.iterations} vs {results[0].iterations} (ratio "
+                  f"{cert.iterations / results[0].iterations:.2f}), CPU {cert.cpu:.1f} s vs {results[0].cpu:.1f} s "
+                  f"(ratio {cert.cpu / results[0].cpu:.2f})")
         if results and results[0].completed and cert.completed:
             print(f"   vs {args.paths[0]}: {agreement(results[0], cert)}")
         elif results:
@@ -468,7 +504,7 @@ def main(argv=None) -> int:
             if base.completed and cert.completed:
                 print(f"   new against today's certificate: {agreement(base, cert)}")
             rows.append(table_row(name, start.n, f"{path} at {args.baseline}", base))
-        rows.append(table_row(name, start.n, path, cert))
+        rows.append(table_row(name, start.n, path, cert, results[0] if len(results) > 1 else None))
     if args.table:
         print(TABLE_HEAD)
         print("\n".join(rows))

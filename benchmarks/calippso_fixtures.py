@@ -19,6 +19,8 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
 - ``ls10000_p1e12_s0``, ``ls10000_p1e12_s03``, ``ls16384_p1e12_s0``: LS outputs at p = 1e12 at the paper's N,
   sigma = 0 and 0.3 (sigma: relative standard deviation of the diameters); the last two at gamma = 1e-2, and
   ``ls10000_p1e12_s03_gamma1e-3`` the sigma = 0.3 one at gamma = 1e-3, as ``ls10000_p1e12_s0``;
+- ``ls16384_p1e5``: the reference's own case (CALiPPSO.jl's documented N = 16384 run starts from an LS output at
+  p = 1e5), LS at gamma = 1e-3, sigma = 0;
 - ``mls10000_p1e12_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
   (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_p1e12_s0``. Hours of CPU; its MLS run
   checkpoints beside the file as well.
@@ -45,6 +47,9 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     # sqrt(Gamma) - 1, ~150 times farther than gamma = 1e-3 (docs/calippso.md §9)
     "ls10000_p1e12_s03_gamma1e-3": (10_000, 0.3, 1e-3, 1e12, 1),
     "ls16384_p1e12_s0": (16_384, 0.0, 1e-2, 1e12, 1),
+    # the reference's own case (issue 46): LS at N = 16384, sigma = 0, to p = 1e5; gamma = 1e-3 so that the
+    # packing's true pressure is near its stop pressure (at gamma = 1e-2 it is ~10 times lower and creeps, §9)
+    "ls16384_p1e5": (16_384, 0.0, 1e-3, 1e5, 1),
 }
 #: name -> the LS fixture its MLS search starts from (the paper's MLS parameters, the workflow's defaults)
 MLS_FIXTURES: dict[str, str] = {"mls10000_p1e12_s0": "ls10000_p1e12_s0"}

@@ -173,3 +173,39 @@ def test_row_check_is_relative_to_the_pairs_sigma2():
         assert (problem is not None and "row" in problem) is rejected
         h = math.sqrt(1.0 / inflation) - 1.0  # the step's relative overlap of that pair
         assert (-h > 1e-8) is rejected
+
+
+@pytest.mark.parametrize("solver", ["hipo", "ipx"])
+def test_interior_step_keeps_every_row(ls_jammed_256, solver):
+    """An intermediate step taken from the interior point (docs §10): no vertex, but every row and bound holds (to
+    the solver tolerance), Gamma is the LP's optimum to 1e-9, and the step it gives, applied to the packing, leaves
+    no overlap beyond round-off. A regime-3 LP with a loose bound, so the step moves particles."""
+    from spherejam.calippso.constraints import row_excess
+    from spherejam.core.packing import Packing
+
+    p = ls_jammed_256
+    x, box, dia = p.positions, p.box, p.diameters
+    i, j, _ = pairs_in_cutoff(x, box, 1.35 * dia.max())
+    rij, sigma2 = pair_vectors(x, box, i, j), (0.5 * (dia[i] + dia[j])) ** 2
+    kw = dict(s_bound=0.05 * dia.max(), pinned=0, inflation_bounds=(1.0, 1.1), solver=solver)
+    step = solve_lp(rij, sigma2, i, j, 256, **kw, interior=True)
+    vertex = solve_lp(rij, sigma2, i, j, 256, **kw)
+    assert step.method == "interior" and step.basis is None and step.solver == solver
+    assert row_excess(rij, sigma2, i, j, step.s, step.inflation) <= 1e-8
+    assert np.max(np.abs(step.s)) <= kw["s_bound"] * (1 + 1e-9) and step.inflation >= 1.0
+    assert step.inflation == pytest.approx(vertex.inflation, rel=1e-9)
+    assert np.max(np.abs(step.s)) > 1e-6  # it moved
+    moved = Packing(np.mod(x + step.s, box), dia * math.sqrt(step.inflation), box)
+    assert moved.check(1e-8).ok
+
+
+def test_interior_steps_end_on_a_vertex_and_certify(ls_jammed_256):
+    """With interior steps the run still converges on vertices under the unchanged criteria, with a valid
+    certificate; intermediate LPs are interior points."""
+    from spherejam.calippso.solution import METHOD_CODES
+
+    result = run_calippso(ls_jammed_256, interior_steps=True)
+    assert_jammed(result, 3)
+    methods = result.history["method"]
+    assert np.any(methods == METHOD_CODES["interior"]) and methods[-1] != METHOD_CODES["interior"]
+    assert result.packing.metadata["parameters"]["interior_steps"] is True

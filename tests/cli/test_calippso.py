@@ -45,3 +45,29 @@ def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):
                   if a.dest == "solver")
     assert tuple(action.choices) == ("auto", *SOLVERS)
     assert set(SOLVER_CODES) == {"none", *SOLVERS}
+
+
+def test_cli_lp_log_survives_a_resume(tmp_path, capsys):
+    """--lp-log: one CSV row per LP; a run stopped at --max-iterations and resumed from its checkpoint continues the
+    file, which then holds the uninterrupted run's rows; --schedule is recorded."""
+    import csv
+
+    from spherejam.cli import main
+    from spherejam.core.packing_io import read_packing, write_packing
+
+    src, out, ckpt = tmp_path / "in.h5", tmp_path / "out.h5", tmp_path / "c.h5"
+    write_packing(src, rsa_packing(96, 0.35, 3, seed=5))
+    whole, part = tmp_path / "whole.csv", tmp_path / "part.csv"
+    assert main(["calippso", str(src), "-o", str(out), "--schedule", "reference", "--lp-log", str(whole)]) == 0
+    assert read_packing(out).metadata["parameters"]["schedule"] == "reference"
+    args = ["calippso", str(src), "-o", str(out), "--schedule", "reference", "--lp-log", str(part),
+            "--checkpoint", str(ckpt)]
+    assert main([*args, "--max-iterations", "5"]) == 1 and ckpt.exists()
+    assert main(args) == 0 and not ckpt.exists()
+    capsys.readouterr()
+
+    def rows(path):
+        with open(path, newline="") as fh:
+            return [{k: v for k, v in r.items() if not k.endswith("_s")} for r in csv.DictReader(fh)]  # no timings
+
+    assert len(rows(whole)) > 5 and rows(part) == rows(whole)

@@ -209,7 +209,7 @@ def warm_pivot_limit(n: int) -> int:
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
-             crossover: bool = True, cuts: bool = False) -> LPSolution:
+             crossover: bool = True, cuts: bool = False, interior: bool = False) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
@@ -223,7 +223,9 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     interior point with crossover. With ``cuts``, ``warm`` is the optimal basis of this LP without some of its rows
     (constraint generation, docs/calippso.md §5.7), re-optimised by dual simplex instead. On a non-optimal result
     the LP is solved once more with dual simplex (IPX after a simplex cold solve) before giving up
-    (docs/calippso.md §6).
+    (docs/calippso.md §6). With ``interior`` the interior point itself is returned (method "interior", no vertex,
+    no basis: an intermediate step, docs/calippso.md §10) once its rows and bounds are checked; its duals are not a
+    vertex's and certify nothing. Should it fail, the attempts above follow.
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
@@ -234,7 +236,12 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     failures = []
     predicted = None  # the basis an uncertified vertex predicts
     t0 = time.perf_counter()
-    for method, o in _attempts(opts, options, solver, crossover, n, model.ncol, warm, cuts):
+    attempts = _attempts(opts, options, solver, crossover, n, model.ncol, warm, cuts)
+    if interior:
+        attempts.insert(0, ("interior", {**opts, "solver": "ipx" if solver == "simplex" else solver,
+                                         "run_crossover": "off", "ipm_optimality_tolerance": VERTEX_IPM_TOLERANCE,
+                                         **(options or {})}))
+    for method, o in attempts:
         start = {"warm": warm, "predicted": predicted}.get(method)
         if method == "predicted" and start is None:
             continue  # no vertex was predicted
@@ -243,6 +250,13 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             failures.append(failure)
             continue
         status = h.getModelStatus()
+        if method == "interior":
+            step, problem = _interior_point(h, model, tolerance)
+            if problem is None:
+                step.solve_time, step.solver = time.perf_counter() - t0, o["solver"]
+                return step
+            failures.append(f"interior ({h.modelStatusToString(status)}): {problem}")
+            continue
         if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
                                                  highspy.HighsModelStatus.kUnbounded):
             # any interior point will do (even one HiGHS calls imprecise): the vertex is certified on its own
@@ -395,6 +409,26 @@ def _certified_vertex(h, model: _Model, tolerance: float):
         vertex.basis = _vertex_basis(vertex, guess[1], vertex.held, pinned, keys)  # its bounds after the pivots
         vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
     return vertex, predicted, problem
+
+
+def _interior_point(h, model: _Model, tolerance: float):
+    """The interior point of a solve without crossover as an intermediate step: ``(the solution, None)``, or ``(None,
+    what is wrong)``. Only its primal part is checked (every row and bound to 10 ``tolerance``, as a vertex's): the
+    step must keep every row, and its duals are never used as forces."""
+    import highspy
+
+    if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+        return None, "not optimal"
+    sol = h.getSolution()
+    if not sol.value_valid:
+        return None, "no valid solution"
+    x = np.asarray(sol.col_value)
+    s = x[:-1].reshape(model.n, model.dim).copy()
+    problem = model.problem(s, float(x[-1]), np.zeros(model.rhs.size), tolerance)  # zero duals: primal only
+    if problem is not None:
+        return None, problem
+    duals = np.maximum(-np.asarray(sol.row_dual), 0.0) if sol.dual_valid else np.zeros(model.rhs.size)
+    return LPSolution(s, float(x[-1]), duals, 0.0, "interior"), None
 
 
 def _checked_optimum(h, model: _Model, tolerance: float):

@@ -35,8 +35,10 @@ from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex
 from .constraints import closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
+from .lp_log import LPLog
 from .network import balanced_forces, contact_network, initial_pin, near_gaps, repin
-from .schedule import REGIME_THRESHOLDS, cutoff_and_bound, nearest_gap_median, step_limits
+from .schedule import (REFERENCE_INITIAL_SQRT_INFLATION, REGIME_THRESHOLDS, SCHEDULES, cutoff_and_bound,
+                       nearest_gap_median, step_limits)
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
 
 _log = logging.getLogger("spherejam")
@@ -47,6 +49,9 @@ CHECKPOINT_KIND = "calippso"
 #: Why a run stopped: both tolerances met, the iteration cap reached first, or the tolerances met without a force
 #: network to certify (no contact among non-rattlers, or forces that do not balance: :func:`has_force_network`).
 STOP_REASONS = ("converged", "max_iterations", "no_force_network")
+#: With ``interior_steps``, an LP whose previous sqrt(Gamma) - 1 exceeds this is an intermediate step taken from the
+#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10).
+INTERIOR_STEP_MIN = 1e-9
 #: Parameters a resumed run may change (the same trajectory): they do not enter the checkpoint's fingerprint.
 RESUMABLE_CHANGES = ("max_iterations", "threads")
 
@@ -76,6 +81,8 @@ class CalippsoResult:
         ``cutoff`` and ``s_bound`` (units of the largest diameter), ``regime``, ``method`` (:data:`METHOD_CODES`),
         ``solver`` (:data:`SOLVER_CODES`), ``n_contacts``, ``n_rattlers``, ``isostatic``, ``overlap_correction``,
         ``contact_changes`` (contacts among non-rattlers gained or lost since the previous LP; -1 for the first),
+        ``contacts_gained`` and ``contacts_lost`` (the two parts of it; -1 for the first), ``iteration_cpu_time``
+        and ``iteration_wall_time`` (s, the whole iteration: rows, solve, contact network, step),
         ``bound_active`` (s components of non-rattlers at their bound), ``lp_rows`` (rows of the LP as solved:
         fewer than ``n_constraints`` under constraint generation) and ``rows_added`` (rows constraint generation
         added after the first solve, docs §5.7).
@@ -181,7 +188,7 @@ VARIABLES: dict[str, tuple[str, str]] = {
 
 def _validate(packing, max_iterations, inflation_tolerance, displacement_tolerance, s_bound, cutoff,
               initial_sqrt_inflation, zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval,
-              regime_thresholds, threads):
+              regime_thresholds, threads, schedule):
     require(isinstance(packing, Packing), "packing", type(packing).__name__, "must be a Packing")
     require(isinstance(max_iterations, (int, np.integer)) and max_iterations >= 1, "max_iterations",
             max_iterations, "must be an integer >= 1")
@@ -204,6 +211,7 @@ def _validate(packing, max_iterations, inflation_tolerance, displacement_toleran
     require(len(th) == 2 and all(math.isfinite(t) and t > 0 for t in th) and th[0] > th[1], "regime_thresholds",
             regime_thresholds, "must be two numbers > 0, the first larger")
     require(isinstance(threads, (int, np.integer)) and threads >= 1, "threads", threads, "must be an integer >= 1")
+    require(schedule in SCHEDULES, "schedule", schedule, f"must be one of {', '.join(SCHEDULES)}")
 
 
 def run_calippso(
@@ -232,6 +240,9 @@ def run_calippso(
     threads: int = 1,
     crossover: bool | None = None,
     constraint_generation: bool = False,
+    schedule: str = "adaptive",
+    interior_steps: bool = False,
+    lp_log: str | Path | None = None,
 ) -> CalippsoResult:
     """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
 
@@ -255,7 +266,8 @@ def run_calippso(
         l0, the regime-1 cutoff on centre distances, in units of the initial largest diameter; None = 2 (4 R0).
         It is enlarged automatically when it becomes too small (docs §1.4).
     initial_sqrt_inflation : float or None
-        sqrt(Gamma_prev) for the first regime choice; None = 1 + median nearest-neighbour gap (docs §1.6).
+        sqrt(Gamma_prev) for the first regime choice; None = 1 + median nearest-neighbour gap (docs §1.6) under the
+        adaptive schedule, 1.01 under the reference's.
     regime_thresholds : (float, float)
         Thresholds on sqrt(Gamma_prev) - 1 between regimes 1/2 and 2/3 ((5e-4, 1e-5)).
     zero_force : float
@@ -301,25 +313,39 @@ def run_calippso(
         Solve each HiGHS LP over the rows of the pairs that can close in it, then add the other rows that its
         solution violates and re-solve (dual simplex from its basis) until none is (docs §5.7). The solution is
         an optimum of the full LP either way; off (the default), every row of the cutoff is in the LP.
+    schedule : str
+        The bounds schedule (docs §10): "adaptive" (the default; the first regime from the input's gaps, a bound
+        that stops a stable particle widened, docs §1.5-§1.6) or "reference" (CALiPPSO.jl's: a loose regime-1 first
+        LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening).
+    interior_steps : bool
+        Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
+        interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
+        and the overlap guard of docs §1.8 applies); the LPs below it, the convergence test and the force LP take
+        vertices as before (docs §10). Off (the default): every LP is a vertex.
+    lp_log : path or None
+        Write the per-LP record there as CSV (:mod:`.lp_log`, docs §10), one row appended and flushed per LP;
+        a resumed run rewrites it from its checkpoint's history first. Not part of the checkpoint's fingerprint.
     """
     _validate(packing, max_iterations, inflation_tolerance, displacement_tolerance, s_bound, cutoff,
               initial_sqrt_inflation, zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval,
-              regime_thresholds, threads)
+              regime_thresholds, threads, schedule)
     solver = resolve_solver(solver, packing.n)
     wall0 = time.perf_counter()
     report = packing.check(overlap_tolerance)
     if not report.ok:
         raise OverlapError(f"CALiPPSO input: {report}")
     cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-                    threads, crossover, active_set, warm_start, constraint_generation)
+                    threads, crossover, active_set, warm_start, constraint_generation, schedule, interior_steps)
     run = _Run.start(packing, cfg, initial_sqrt_inflation)
     parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
                              displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
     ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, {
         k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}), checkpoint_interval)
     run.resume(ckpt)
+    log = LPLog(lp_log)
+    log.start(run.history.as_arrays())
     converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
-                         Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval))
+                         Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval), log)
     if not converged and require_convergence:
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
                               f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
@@ -350,7 +376,8 @@ def no_force_network_message(result: CalippsoResult) -> str:
 
 
 def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-              threads, crossover, active_set, warm_start, constraint_generation) -> _Settings:
+              threads, crossover, active_set, warm_start, constraint_generation, schedule,
+              interior_steps) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
     packing.require_cube("CALiPPSO")  # wall rows: docs/containers.md §5
@@ -361,7 +388,7 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_to
         s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
         solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver, threads=int(threads),
         crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
-        constraint_generation=bool(constraint_generation),
+        constraint_generation=bool(constraint_generation), schedule=schedule, interior_steps=bool(interior_steps),
         warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
     )
 
@@ -377,7 +404,9 @@ def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, i
         "zero_force": cfg.zero_force, "solver_tolerance": cfg.solver_tolerance, "overlap_tolerance": overlap_tolerance,
         "fine_tune": bool(fine_tune), "active_set": cfg.active_set, "warm_start": bool(warm_start),
         "solver": cfg.solver, "threads": cfg.threads, "crossover": cfg.crossover,
-        "constraint_generation": cfg.constraint_generation, "highs_version": highs_version(),
+        "constraint_generation": cfg.constraint_generation, "schedule": cfg.schedule,
+        "interior_steps": cfg.interior_steps,
+        "highs_version": highs_version(),
     }
 
 
@@ -457,12 +486,15 @@ def _jammed_packing(packing: Packing, positions, diameters, parameters) -> Packi
 
 
 def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterations: int, inflation_tolerance: float,
-             displacement_tolerance: float, progress: Progress) -> bool:
-    """Iterate until both tolerances are met (True) or ``max_iterations`` LPs have been solved (False). The state is
-    saved whenever the checkpoint is due, and on SIGTERM/SIGINT, which then stop the run."""
+             displacement_tolerance: float, progress: Progress, log: LPLog) -> bool:
+    """Iterate until both tolerances are met (True) or ``max_iterations`` LPs have been solved (False). Each LP's
+    history row goes to the LP log at once; the state is saved whenever the checkpoint is due, and on
+    SIGTERM/SIGINT, which then stop the run."""
     while run.iteration < max_iterations:
         sqrt_inflation, max_s = _iteration(run, cfg, progress)
-        if _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
+        log.append({k: run.history.last(k) for k in run.history.as_arrays()}, run.iteration)
+        vertex = run.last[1].method_name != "interior"  # an interior step's s is no vertex's: never converged on
+        if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             return True
         if ckpt.due():
             run.save(ckpt)
@@ -476,13 +508,14 @@ def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, fl
     """One iteration: schedule, solve, check, step, record, hand over. Returns what convergence is judged on:
     ``(sqrt(Gamma) as applied, max |s_{i,mu}| over non-rattlers in units of the largest diameter)``."""
     loop = run.loop
+    cpu_it, wall_it = time.process_time(), time.perf_counter()
     lp = _schedule(run.x, run.dia, loop, cfg)
     cpu0 = time.process_time()
     sol = _solve(lp, loop, cfg, run.tally, run.iteration)
     run.iteration += 1
     lp_cpu = time.process_time() - cpu0
     run.tally.count(sol, lp_cpu)
-    contact, rattler, n_contacts, isostatic, changes = _check(lp, sol, loop, cfg)
+    contact, rattler, n_contacts, isostatic, gained, lost = _check(lp, sol, loop, cfg)
     at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
     run.x, run.dia, sqrt_inflation, correction = _step(run.x, run.dia, sol, cfg.box, run.iteration)
     max_s, max_s_all = _largest_displacements(sol.s, rattler, run.dia)
@@ -493,8 +526,9 @@ def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, fl
         cutoff=lp.ell / run.dia.max(), s_bound=lp.s_bound / run.dia.max(), regime=lp.regime,
         method=METHOD_CODES[sol.method_name], solver=SOLVER_CODES[sol.solver], n_contacts=n_contacts,
         n_rattlers=int(np.count_nonzero(rattler)), isostatic=int(isostatic), overlap_correction=correction,
-        contact_changes=changes, bound_active=at_bound, lp_rows=sol.rows if sol.rows >= 0 else len(lp.pi),
-        rows_added=sol.rows_added,
+        contact_changes=gained + lost if gained >= 0 else -1, contacts_gained=gained, contacts_lost=lost,
+        bound_active=at_bound, lp_rows=sol.rows if sol.rows >= 0 else len(lp.pi), rows_added=sol.rows_added,
+        iteration_cpu_time=time.process_time() - cpu_it, iteration_wall_time=time.perf_counter() - wall_it,
     )
     progress.update(
         f"it {run.iteration}: sqrt(G)-1 {sqrt_inflation - 1:.3e}, max|s| {max_s:.3e}, phi {phi:.8f}, "
@@ -532,6 +566,8 @@ class _Settings:
     active_set: bool
     warm_start: bool
     constraint_generation: bool
+    schedule: str  # the bounds schedule (schedule.SCHEDULES)
+    interior_steps: bool  # intermediate LPs stepped from their interior point (docs §10)
 
 
 @dataclass
@@ -584,7 +620,8 @@ def _schedule(x, dia, loop, cfg: _Settings) -> _LP:
     R = 0.5 * float(dia.max())
     ell, sb, inflation_max, regime = step_limits(
         loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds,
-        None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit)
+        None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit,
+        widen=cfg.schedule == "adaptive")
     return _rows(x, dia, cfg.box, ell, sb, inflation_max, regime)
 
 
@@ -592,6 +629,11 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     """Solve: the previous contact network certified by the active-set solve where no warm start is at hand
     (docs §5.4), else HiGHS, warm-started from the previous basis with a back-off after failures (docs §5.1-§5.3)."""
     sol = None
+    if cfg.interior_steps and loop.sqrt_inflation_prev - 1.0 > INTERIOR_STEP_MIN:  # docs §10
+        return solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
+                        inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
+                        options=cfg.solver_options, iteration=iteration, solver=cfg.solver, threads=cfg.threads,
+                        crossover=cfg.crossover, interior=True)
     # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
     # shortcut only when there is no basis to start from
     if loop.predicted is not None and (loop.basis is None or lp.regime == 1):
@@ -649,20 +691,26 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
 def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
     """Check: the contact network of the LP's duals (docs §3); an isostatic one predicts the next LP's vertex, and so
     does one that is isostatic with the components held at the s bound (docs §5.4). Returns ``(contact mask,
-    rattler mask, n_contacts, isostatic, contact changes)``, the last the contacts among non-rattlers gained or lost
-    since the previous LP (-1 for the first)."""
+    rattler mask, n_contacts, isostatic, gained, lost)``, the last two the contacts among non-rattlers gained and
+    lost since the previous LP (-1 each for the first)."""
     contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.n,
                                                                  cfg.dim, cfg.zero_force)
     network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
     loop.predicted = None
-    if cfg.active_set and isostatic:
+    if sol.method_name == "interior":
+        # an interior point's duals are no vertex's: nothing to predict from, and no basis to warm-start from
+        loop.basis = None
+    elif cfg.active_set and isostatic:
         loop.predicted = (*network, None)
     elif cfg.active_set:
         loop.predicted = vertex_prediction(contact, sol.duals, sol.s, lp.s_bound, lp.rij, lp.pi, lp.pj, cfg.n,
                                            loop.pinned)
-    changes = -1 if loop.contacts is None else int(np.setxor1d(loop.contacts, network[0], assume_unique=True).size)
+    gained = lost = -1
+    if loop.contacts is not None:
+        gained = int(np.setdiff1d(network[0], loop.contacts, assume_unique=True).size)
+        lost = int(np.setdiff1d(loop.contacts, network[0], assume_unique=True).size)
     loop.contacts = network[0]
-    return contact, rattler, n_contacts, isostatic, changes
+    return contact, rattler, n_contacts, isostatic, gained, lost
 
 
 def _step(x, dia, sol: LPSolution, box: float, iteration: int):
@@ -811,10 +859,12 @@ class _Run:
     @classmethod
     def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
         """The input in the driver's units; ``initial_sqrt_inflation`` None: 1 + the median nearest-neighbour gap
-        (docs §1.6)."""
+        (docs §1.6), or the reference's 1.01 under its schedule (docs §10)."""
         x = packing.positions / cfg.unit
         dia = packing.diameters / cfg.unit
-        if initial_sqrt_inflation is None:
+        if initial_sqrt_inflation is None and cfg.schedule == "reference":
+            initial_sqrt_inflation = REFERENCE_INITIAL_SQRT_INFLATION
+        elif initial_sqrt_inflation is None:
             initial_sqrt_inflation = 1.0 + nearest_gap_median(x, dia, cfg.box)
         return cls(x, dia, _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation),
                                       pinned=initial_pin(x, dia, cfg.box)))

@@ -22,6 +22,13 @@ REGIME_CUTOFFS = (2.7, 2.7)
 MIN_FAR_BOUND = 0.1
 #: Cap (units of R) of the doubled s_bound after a stable particle hit its bound (docs/calippso.md §1.5).
 MAX_ESCALATED_BOUND = 0.1
+#: The bounds schedules a run can follow (docs/calippso.md §10): "adaptive" (the default) estimates the first regime
+#: from the input's gaps (§1.6) and widens a bound that stops a stable particle (§1.5); "reference" is CALiPPSO.jl's:
+#: sqrt(Gamma_prev) = :data:`REFERENCE_INITIAL_SQRT_INFLATION` before the first LP (always regime 1, a loose LP) and
+#: the regimes of the previous LP's sqrt(Gamma) alone, no widening.
+SCHEDULES = ("adaptive", "reference")
+#: CALiPPSO.jl's sqrt(Gamma_prev) before the first LP (its default sqrt(Gamma0)).
+REFERENCE_INITIAL_SQRT_INFLATION = 1.01
 
 
 def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, dim: int, box: float,
@@ -75,16 +82,17 @@ def nearest_gap_median(positions: np.ndarray, diameters: np.ndarray, box: float,
 
 
 def step_limits(sqrt_inflation_prev: float, radius: float, cutoff0: float, dim: int, box: float, thresholds,
-                fixed_s_bound: float | None, prev_s_bound: float, bound_hit: bool):
+                fixed_s_bound: float | None, prev_s_bound: float, bound_hit: bool, widen: bool = True):
     """:func:`cutoff_and_bound` of one iteration, with the bound adapted to the previous LP (docs/calippso.md §1.5).
 
     ``fixed_s_bound`` is the user's fixed bound (absolute, None: the regimes), ``prev_s_bound`` the previous LP's
     bound (0 before the first LP) and ``bound_hit`` whether a stable particle ended that LP at it. Without a fixed
     bound, a hit doubles the previous bound (up to :data:`MAX_ESCALATED_BOUND` R), no hit halves it; the result is
-    used while it exceeds the regime's own bound.
+    used while it exceeds the regime's own bound. ``widen`` False (the reference's schedule, docs/calippso.md §10):
+    the regime's own bound, whatever the previous LP did.
     """
     R = radius
-    if fixed_s_bound is None and prev_s_bound > 0:
+    if widen and fixed_s_bound is None and prev_s_bound > 0:
         # a stable particle stopped by its bound means the regime's bound is too tight for this packing:
         # double it (up to 0.1 R); once no bound stops anyone, relax back towards the regime's value
         regime_sb = cutoff_and_bound(sqrt_inflation_prev, R, cutoff0, dim, box, thresholds)[1]

@@ -11,8 +11,8 @@ import numpy as np
 #: "active-set" the previous LP's contact network certified by :func:`~.active_set.solve_active_set`, "warm" primal
 #: simplex from the previous LP's basis, "vertex" interior point without crossover, its vertex certified by
 #: :func:`~.active_set.solve_active_set`, "predicted" primal simplex from the basis of a "vertex" that was not
-#: certified.
-METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3, "vertex": 4, "predicted": 5}
+#: certified, "interior" an interior point taken as an intermediate step, no vertex (docs/calippso.md §10).
+METHOD_CODES = {"ipm": 0, "simplex": 1, "active-set": 2, "warm": 3, "vertex": 4, "predicted": 5, "interior": 6}
 #: History codes of which HiGHS solver produced an LP's solution ("none": the active-set solve alone, no HiGHS).
 SOLVER_CODES = {"none": 0, "hipo": 1, "ipx": 2, "simplex": 3}
 

@@ -38,6 +38,17 @@ def register(sub) -> None:
     p.add_argument("--constraint-generation", action="store_true",
                    help="solve each HiGHS LP over the rows that can close first, then add the violated others "
                         "(docs/calippso.md 5.7); the certificate is the same")
+    p.add_argument("--schedule", choices=("adaptive", "reference"), default="adaptive",
+                   help="bounds schedule: adaptive (default: first regime from the input's gaps, a bound that stops "
+                        "a stable particle widened) or reference (CALiPPSO.jl's: a loose first LP, the regimes of "
+                        "the previous sqrt(Gamma) alone, no widening); docs/calippso.md 10")
+    p.add_argument("--interior-steps", action="store_true",
+                   help="step from the interior point (no vertex, no crossover) while sqrt(Gamma)-1 > 1e-9; the "
+                        "final LPs and the force LP take vertices (docs/calippso.md 10)")
+    p.add_argument("--lp-log", type=output_file, default=None,
+                   help="write one CSV row per LP here (sqrt(Gamma)-1, max |s|, bounds, contacts gained and lost, "
+                        "solver path, CPU and wall s), flushed after each LP; a resumed run rewrites it from its "
+                        "checkpoint and continues it")
     p.add_argument("--checkpoint", type=output_file, default=None, help="checkpoint file (resume if it exists)")
     add_stale_checkpoint_option(p)
     p.add_argument("--require-convergence", action="store_true",
@@ -55,14 +66,16 @@ def _calippso(args) -> int:
     from ..core.atomic import atomic_output
     from ..core.packing_io import read_packing, write_packing
 
-    check_outputs({"-o/--output": args.output, "--summary": args.summary}, inputs={"path": args.path},
+    check_outputs({"-o/--output": args.output, "--summary": args.summary, "--lp-log": args.lp_log},
+                  inputs={"path": args.path},
                   also={"--checkpoint": args.checkpoint})
     packing = read_packing(args.path)
     result = run_discarding_stale(args, lambda: run_calippso(
         packing, max_iterations=args.max_iterations, inflation_tolerance=args.inflation_tolerance,
         displacement_tolerance=args.displacement_tolerance, cutoff=args.cutoff, checkpoint=args.checkpoint,
         require_convergence=args.require_convergence, solver=args.solver, threads=args.threads,
-        crossover=args.crossover, constraint_generation=args.constraint_generation,
+        crossover=args.crossover, constraint_generation=args.constraint_generation, schedule=args.schedule,
+        interior_steps=args.interior_steps, lp_log=args.lp_log,
     ))
     summary = {"input": str(args.path), "output": str(args.output), **result.summary()}
     if result.completed:
