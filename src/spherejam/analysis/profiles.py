@@ -344,7 +344,7 @@ def _edges(extent: float, bin_width: float) -> np.ndarray:
     return edges
 
 
-def _require_walls(packing: Packing, what: str):
+def _container_3d(packing: Packing, what: str):
     require(packing.dim == 3, "dimension d", packing.dim, f"{what} is implemented for d = 3")
     return packing.container
 
@@ -352,7 +352,7 @@ def _require_walls(packing: Packing, what: str):
 def radial_profile(packing: Packing, bin_width: float = DEFAULT_BIN_WIDTH) -> Profile:
     """The radial porosity profile of a packing in a cylinder or a sphere: bins of ``bin_width`` mean diameters
     of the distance from the curved wall, from the wall (0) to the axis or centre (R / <d>)."""
-    c = _require_walls(packing, "the radial profile")
+    c = _container_3d(packing, "the radial profile")
     if c.curved is None:
         raise InputError(f"container={c.spec}: a radial profile needs a cylinder or a sphere (use the axial profile)")
     dbar = packing.mean_diameter
@@ -393,7 +393,7 @@ def axial_profile(packing: Packing, axis: int | None = None, bin_width: float = 
     of ``bin_width`` mean diameters of the position x_k / <d> from 0 to L_k / <d>, or, with ``fold``, of the distance
     from the nearer of the planes x_k = 0 and x_k = L_k, from 0 to L_k / (2 <d>). Along a periodic axis each sphere's
     periodic images are summed (a sphere crossing a periodic face counts in the bins at both ends)."""
-    c = _require_walls(packing, "the axial profile")
+    c = _container_3d(packing, "the axial profile")
     k = _axial_axis(c, axis)
     if c.curved == "sphere" or (c.curved == "cylinder" and k != c.axis):
         raise InputError(f"container={c.spec}: an axial profile along {'xyz'[k]} needs a constant cross-section "
@@ -457,7 +457,7 @@ def core(packing: Packing, distance: float = DEFAULT_CORE_DISTANCE) -> Core:
     if not c.has_walls:
         solid = float(np.sum(ball_volume(packing.diameters, packing.dim)))
         return Core(float(distance), total, solid, 1.0)
-    _require_walls(packing, "the core phi")
+    _container_3d(packing, "the core phi")
     w = float(distance) * packing.mean_diameter
     radius = 0.5 * packing.diameters
     lengths = np.asarray(c.lengths)
