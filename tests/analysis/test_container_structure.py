@@ -138,3 +138,9 @@ def test_analyze_a_container_packing(tmp_path, capsys):
     assert record["container"]["achieved"]["diameter"] == pytest.approx(2 * p.container.radius / p.mean_diameter)
     assert main(["analyze", str(path)]) == 0
     assert "core phi (5 d from every wall" in capsys.readouterr().out
+
+
+def test_tolerance_scan_counts_the_walls():
+    scan = contacts.tolerance_scan(square_layer(), np.array([1e-9, 1e-6, 1e-3]))
+    assert scan["z_mean"].tolist() == [5.0, 5.0, 5.0]
+    assert scan["isostatic_contacts"].tolist() == [26, 26, 26]
