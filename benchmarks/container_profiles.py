@@ -44,11 +44,12 @@ def main() -> None:
     ap.add_argument("--bin-width", type=float, default=0.05)
     ap.add_argument("--core", type=float, default=5.0, help="core distance from every wall, mean diameters")
     args = ap.parse_args()
-    eps_bulk = None
+    eps_bulk = bulk_ci = None
+    n_bulk = 0
     if args.bulk:
         phis = [read_packing(f).phi for f in sorted(glob.glob(args.bulk))]
         m, ci = _mean_ci(1.0 - np.array(phis))
-        eps_bulk = m
+        eps_bulk, bulk_ci, n_bulk = m, ci, len(phis)
         print(f"bulk: {len(phis)} periodic packings, eps_bulk = {m:.4f} +- {ci:.4f} (phi = {1 - m:.4f})")
     for pattern in args.groups:
         files = sorted(glob.glob(pattern))
@@ -88,7 +89,9 @@ def main() -> None:
             r = float(np.mean(ratio))
             row = packed_bed.comparison([r], [1 - phi], eps_bulk)[0]
             bo = row["excess_benyahia_oneill"]
-            print(f"  excess porosity over bulk: {row['excess']:.4f} +- {phi_ci:.4f}; Benyahia-O'Neill at D/d = "
+            ci = math.hypot(phi_ci, bulk_ci)
+            ci_text = f"+- {ci:.4f}" if math.isfinite(ci) else f"(CI not estimable: n = {len(packs)}, bulk n = {n_bulk})"
+            print(f"  excess porosity over bulk: {row['excess']:.4f} {ci_text}; Benyahia-O'Neill at D/d = "
                   f"{r:.2f}: {'n/a' if bo is None else f'{bo:.4f}'}")
 
 
