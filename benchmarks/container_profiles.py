@@ -90,7 +90,8 @@ def main() -> None:
             row = packed_bed.comparison([r], [1 - phi], eps_bulk)[0]
             bo = row["excess_benyahia_oneill"]
             ci = math.hypot(phi_ci, bulk_ci)
-            ci_text = f"+- {ci:.4f}" if math.isfinite(ci) else f"(CI not estimable: n = {len(packs)}, bulk n = {n_bulk})"
+            ci_text = (f"+- {ci:.4f}" if math.isfinite(ci)
+                       else f"(CI not estimable: n = {len(packs)}, bulk n = {n_bulk})")
             print(f"  excess porosity over bulk: {row['excess']:.4f} {ci_text}; Benyahia-O'Neill at D/d = "
                   f"{r:.2f}: {'n/a' if bo is None else f'{bo:.4f}'}")
 

@@ -2,8 +2,9 @@
 
 A particle with fewer than k contacts with non-rattlers is a rattler, recursively; the fixed point is the k-core,
 computed by peeling in O(N + K). A contact with a body that is never a rattler (a container's wall) counts for its
-particle through ``fixed`` (contacts per particle that peeling never removes). Both the contact analysis of a packing (:mod:`spherejam.analysis.contacts`, contacts
-by gap) and CALiPPSO's certificate (contacts by LP dual) take their rattlers from here.
+particle through ``fixed`` (contacts per particle that peeling never removes). Both the contact analysis of a packing
+(:mod:`spherejam.analysis.contacts`, contacts by gap) and CALiPPSO's certificate (contacts by LP dual) take their
+rattlers from here.
 """
 
 from __future__ import annotations
