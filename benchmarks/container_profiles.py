@@ -22,10 +22,17 @@ from spherejam.core.packing_io import read_packing
 
 
 def _mean_ci(x):
+    """Mean and the half-width of its 95 % Student-t interval (NaN: not estimable, fewer than 3 values)."""
+    from scipy.stats import t
+
     x = np.asarray(x, dtype=float)
-    if len(x) < 2:
+    if len(x) < 3:
         return float(x.mean()), math.nan
-    return float(x.mean()), float(1.96 * x.std(ddof=1) / math.sqrt(len(x)))
+    return float(x.mean()), float(t.ppf(0.975, len(x) - 1) * x.std(ddof=1) / math.sqrt(len(x)))
+
+
+def _pm(ci, n):
+    return f"+- {ci:.4f}" if math.isfinite(ci) else f"(interval not estimable, n = {n})"
 
 
 def _minima(centres, eps, start=0.2):
@@ -50,7 +57,7 @@ def main() -> None:
         phis = [read_packing(f).phi for f in sorted(glob.glob(args.bulk))]
         m, ci = _mean_ci(1.0 - np.array(phis))
         eps_bulk, bulk_ci, n_bulk = m, ci, len(phis)
-        print(f"bulk: {len(phis)} periodic packings, eps_bulk = {m:.4f} +- {ci:.4f} (phi = {1 - m:.4f})")
+        print(f"bulk: {len(phis)} periodic packings, eps_bulk = {m:.4f} {_pm(ci, len(phis))} (phi = {1 - m:.4f})")
     for pattern in args.groups:
         files = sorted(glob.glob(pattern))
         if not files:
@@ -67,11 +74,11 @@ def main() -> None:
         phi, phi_ci = _mean_ci([p.phi for p in packs])
         cores = [profiles.core(p, args.core) for p in packs]
         print(f"\n{c.spec}: {len(packs)} packings, N = {packs[0].n}, D/<d> (or H/<d>) = {np.mean(ratio):.3f}")
-        print(f"  phi = {phi:.4f} +- {phi_ci:.4f}; eps = {1 - phi:.4f}")
+        print(f"  phi = {phi:.4f} {_pm(phi_ci, len(packs))}; eps = {1 - phi:.4f}")
         if cores[0].volume > 0:
             pc, pc_ci = _mean_ci([x.phi for x in cores])
             print(f"  core phi ({args.core:g} d from every wall, {cores[0].fraction_of_container:.3f} of the volume)"
-                  f" = {pc:.4f} +- {pc_ci:.4f}")
+                  f" = {pc:.4f} {_pm(pc_ci, len(packs))}")
             far = centres > args.core
             if far.any():
                 print(f"  max |eps - eps_core| beyond {args.core:g} d (mean profile, bins of {args.bin_width:g} d):"
