@@ -67,15 +67,11 @@ SOLID_BOND_THRESHOLD = 0.7
 SOLID_BONDS = 7
 
 
-def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRESHOLD, solid_bonds: int = SOLID_BONDS,
-                         cutoff: float = Q6_CUTOFF, bonds=None) -> tuple[float, float]:
-    """Fraction of crystalline (solid-like) particles, and the largest crystalline cluster as a fraction of N.
-
-    Bonds are those of :func:`bond_network` (r_ij <= ``cutoff`` * D_ij); the bond-orientational test is freud's
-    ``order.SolidLiquid`` (l = 6, normalised q6m). A perfect FCC or HCP crystal gives (1, 1); jammed amorphous
-    packings give a few per cent of scattered particles. Monodisperse MLS and slow LS runs can nucleate crystals
-    (paper §IV.A), which this measure flags. ``bonds`` as in :func:`steinhardt`.
-    """
+def crystalline_particles(packing: Packing, q_threshold: float = SOLID_BOND_THRESHOLD,
+                          solid_bonds: int = SOLID_BONDS, cutoff: float = Q6_CUTOFF,
+                          bonds=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(crystalline, cluster)``, each (N,): whether each particle is crystalline (solid-like), and freud's cluster
+    of solid bonds it belongs to (see :func:`crystalline_fraction`)."""
     import freud
 
     require(packing.dim == 3, "dimension d", packing.dim, "the crystalline fraction is defined for d = 3 only")
@@ -84,17 +80,35 @@ def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRES
             "must be an integer >= 1")
     i, j, d = bond_network(packing, cutoff) if bonds is None else bonds
     if len(i) == 0:
-        return 0.0, 0.0
+        return np.zeros(packing.n, dtype=bool), np.arange(packing.n)
     query, point, vec = np.r_[i, j], np.r_[j, i], np.r_[d, -d]
     order = np.lexsort((point, query))
     nlist = freud.locality.NeighborList.from_arrays(packing.n, packing.n, query[order], point[order], vec[order])
     solid = freud.order.SolidLiquid(6, q_threshold, int(solid_bonds), normalize_q=True)
-    box = packing.require_cube("the crystalline fraction (freud)")
-    solid.compute((freud.box.Box.cube(box), packing.positions - box / 2), neighbors=nlist)
-    crystalline = np.asarray(solid.num_connections) >= solid_bonds
+    c = packing.container
+    if c.is_periodic_cube:
+        box = packing.box
+        solid.compute((freud.box.Box.cube(box), packing.positions - box / 2), neighbors=nlist)
+    else:  # the bonds come from the frame's own pair search (no bond through a wall); freud only needs a box
+        frame = freud.box.Box(*c.lengths)
+        frame.periodic = list(c.periodic)
+        solid.compute((frame, packing.positions - c.centre), neighbors=nlist)
+    return np.asarray(solid.num_connections) >= solid_bonds, np.asarray(solid.cluster_idx)
+
+
+def crystalline_fraction(packing: Packing, q_threshold: float = SOLID_BOND_THRESHOLD, solid_bonds: int = SOLID_BONDS,
+                         cutoff: float = Q6_CUTOFF, bonds=None) -> tuple[float, float]:
+    """Fraction of crystalline (solid-like) particles, and the largest crystalline cluster as a fraction of N.
+
+    Bonds are those of :func:`bond_network` (r_ij <= ``cutoff`` * D_ij); the bond-orientational test is freud's
+    ``order.SolidLiquid`` (l = 6, normalised q6m). A perfect FCC or HCP crystal gives (1, 1); jammed amorphous
+    packings give a few per cent of scattered particles. Monodisperse MLS and slow LS runs can nucleate crystals
+    (paper §IV.A), which this measure flags. ``bonds`` as in :func:`steinhardt`. In a container the bonds never
+    cross a wall (:func:`bond_network`).
+    """
+    crystalline, cluster = crystalline_particles(packing, q_threshold, solid_bonds, cutoff, bonds)
     if not crystalline.any():
         return 0.0, 0.0
     # freud clusters every particle (non-solid ones as singletons): the largest cluster of crystalline particles
-    sizes = np.bincount(np.asarray(solid.cluster_idx)[crystalline])
+    sizes = np.bincount(cluster[crystalline])
     return float(crystalline.mean()), float(sizes.max() / packing.n)
-

@@ -19,13 +19,21 @@ of the contact graph, k = d + 1, computed by peeling in O(N + K).
 
 **Isostaticity** (paper, Appendix E): the N' non-rattlers of a jammed periodic packing need at least
 K_0 = d(N' - 1) + 1 contacts among themselves; a random jammed packing has exactly K_0, so Z = 2K'/N' -> 2d.
+
+**Containers** (docs/containers_structure.md): a sphere whose relative gap to a wall, h_iw = dist_iw / r_i - 1
+(dist_iw from its centre to the wall), is below the tolerance touches that wall, and each wall it touches is one
+contact (a sphere in a box corner touches three). Wall gaps join the tolerance scan. A wall is never a rattler: its
+contacts count toward a sphere's contacts in the k-core rule (``fixed`` of :func:`~spherejam.core.rattlers
+.rattler_mask`). K and K' then count sphere-sphere and sphere-wall contacts, Z = (2 K_ss + K_sw) / N is the mean
+number of contacts of a sphere, and K_0 is the container's own count, ``container.isostatic_contacts(N')`` (equal
+to d(N' - 1) + 1 for the periodic box).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -69,6 +77,36 @@ def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray
     i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.frame, 1.0 + max_gap)
     dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
     return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0
+
+
+def wall_gaps(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
+    """``(wall, h)``, each (N, W): the walls of the packing's container and the relative gap h_iw = dist_iw / r_i - 1
+    of every sphere to each (W = 0 in a periodic box). Wall w is the plane x_k = 0 for w = 2k, x_k = L_k for
+    w = 2k + 1 (walled axes only), and 2d for the curved wall; ``wall`` holds those numbers."""
+    c = packing.container
+    x, r = packing.positions, 0.5 * packing.diameters
+    ids, dist = [], []
+    for k in range(packing.dim):
+        if c.planes[k]:
+            ids += [2 * k, 2 * k + 1]
+            dist += [x[:, k], c.lengths[k] - x[:, k]]
+    if c.curved is not None:
+        p = x - c.centre
+        if c.curved == "cylinder":
+            p = np.delete(p, c.axis, axis=1)
+        ids.append(2 * packing.dim)
+        dist.append(c.radius - np.sqrt(np.einsum("ij,ij->i", p, p)))
+    if not ids:
+        return np.empty((packing.n, 0), dtype=np.int64), np.empty((packing.n, 0))
+    h = np.stack(dist, axis=1) / r[:, None] - 1.0
+    return np.broadcast_to(np.asarray(ids, dtype=np.int64), h.shape).copy(), h
+
+
+def wall_contacts(packing: Packing, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sphere-wall contacts: ``(i, wall, h)`` with h_iw < ``tolerance`` (:func:`wall_gaps`), sorted by (i, wall)."""
+    wall, h = wall_gaps(packing)
+    i, w = np.nonzero(h < tolerance)
+    return i.astype(np.int64), wall[i, w], h[i, w]
 
 
 def contact_pairs(packing: Packing, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,7 +169,7 @@ class Coordination:
     n_contacts_nonrattler: int  #: K', contacts among non-rattlers
     z_nonrattler: float  #: 2K'/N' (NaN if N' = 0)
     rattler_fraction: float  #: 1 - N'/N
-    isostatic_contacts: int  #: K_0 = d(N'-1) + 1 (0 if N' = 0)
+    isostatic_contacts: int  #: K_0 = d(N'-1) + 1, or the container's count (0 if N' = 0)
     isostatic_excess: int  #: K' - K_0
     #: 1 if K' == K_0 and N' > 0, else 0: a count at one gap tolerance, not a verdict on jamming (a few contacts
     #: open or close with the tolerance; CALiPPSO's ``is_isostatic`` certifies, docs/algorithms.md §6.3)
@@ -141,18 +179,25 @@ class Coordination:
         return {k: float(v) for k, v in asdict(self).items()}
 
 
-def _coordination(n, dim, tolerance, pair_i, pair_j, rattler) -> Coordination:
+def _coordination(n, dim, tolerance, pair_i, pair_j, rattler, container=None, wall_i=None) -> Coordination:
     keep = ~(rattler[pair_i] | rattler[pair_j])
     n_nr = int(n - np.count_nonzero(rattler))
-    k_nr = int(np.count_nonzero(keep))
-    k0 = dim * (n_nr - 1) + 1 if n_nr > 0 else 0
+    wall_i = np.empty(0, dtype=np.int64) if wall_i is None else wall_i
+    k_wall, k_wall_nr = len(wall_i), int(np.count_nonzero(~rattler[wall_i]))
+    k_nr = int(np.count_nonzero(keep)) + k_wall_nr
+    if n_nr == 0:
+        k0 = 0
+    elif container is None:
+        k0 = dim * (n_nr - 1) + 1
+    else:
+        k0 = container.isostatic_contacts(n_nr)
     return Coordination(
         contact_tolerance=float(tolerance),
-        n_contacts=len(pair_i),
-        z_mean=2.0 * len(pair_i) / n,
+        n_contacts=len(pair_i) + k_wall,
+        z_mean=(2.0 * len(pair_i) + k_wall) / n,
         n_nonrattlers=n_nr,
         n_contacts_nonrattler=k_nr,
-        z_nonrattler=2.0 * k_nr / n_nr if n_nr else math.nan,
+        z_nonrattler=(2.0 * (k_nr - k_wall_nr) + k_wall_nr) / n_nr if n_nr else math.nan,
         rattler_fraction=1.0 - n_nr / n,
         isostatic_contacts=k0,
         isostatic_excess=k_nr - k0,
@@ -169,8 +214,11 @@ class ContactAnalysis:
     pair_j: np.ndarray  #: second particle
     gap: np.ndarray  #: relative gap h_ij of each contact
     rattler: np.ndarray  #: (N,) bool, True for rattlers
-    contacts_per_particle: np.ndarray  #: (N,) int, contacts of each particle (all partners)
+    contacts_per_particle: np.ndarray  #: (N,) int, contacts of each particle (all partners, walls included)
     pressure: float | None  #: reduced pressure used by the tolerance rule (None if unknown)
+    wall_i: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  #: sphere of each wall contact
+    wall: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))  #: its wall (:func:`wall_gaps`)
+    wall_gap: np.ndarray = field(default_factory=lambda: np.empty(0))  #: its relative gap h_iw
 
 
 def analyze_contacts(
@@ -187,20 +235,25 @@ def analyze_contacts(
     """
     p = packing_pressure(packing, pressure)
     k = packing.dim + 1 if min_contacts is None else min_contacts
+    container = packing.container if packing.container.has_walls else None
     if contact_tolerance is None:
         i, j, h = near_pairs(packing, MAX_SCAN_GAP * 10.0**0.5)
-        tol = choose_tolerance(h, p)
+        _, hw = wall_gaps(packing)
+        tol = choose_tolerance(np.concatenate([h, hw.ravel()]), p)
         keep = h < tol
         i, j, h = i[keep], j[keep], h[keep]
     else:
         _check_tolerance(contact_tolerance)
         tol = float(contact_tolerance)
         i, j, h = contact_pairs(packing, tol)
-    rattler = rattler_mask(packing.n, i, j, k)
-    per_particle = np.bincount(i, minlength=packing.n) + np.bincount(j, minlength=packing.n)
+    wi, ww, wh = wall_contacts(packing, tol)
+    walls = np.bincount(wi, minlength=packing.n)
+    rattler = rattler_mask(packing.n, i, j, k, walls)
+    per_particle = np.bincount(i, minlength=packing.n) + np.bincount(j, minlength=packing.n) + walls
     return ContactAnalysis(
-        coordination=_coordination(packing.n, packing.dim, tol, i, j, rattler),
+        coordination=_coordination(packing.n, packing.dim, tol, i, j, rattler, container, wi),
         pair_i=i, pair_j=j, gap=h, rattler=rattler, contacts_per_particle=per_particle, pressure=p,
+        wall_i=wi, wall=ww, wall_gap=wh,
     )
 
 
@@ -219,12 +272,16 @@ def tolerance_scan(
     for g in grid:
         _check_tolerance(float(g))
     k = packing.dim + 1 if min_contacts is None else min_contacts
+    container = packing.container if packing.container.has_walls else None
     i, j, h = near_pairs(packing, float(grid.max()))
+    wi, _, wh = wall_contacts(packing, float(grid.max()))
     rows = []
     for g in grid:
         keep = h < g
         ii, jj = i[keep], j[keep]
-        rows.append(_coordination(packing.n, packing.dim, g, ii, jj, rattler_mask(packing.n, ii, jj, k)))
+        wg = wi[wh < g]
+        rattler = rattler_mask(packing.n, ii, jj, k, np.bincount(wg, minlength=packing.n))
+        rows.append(_coordination(packing.n, packing.dim, g, ii, jj, rattler, container, wg))
     return {name: np.array([getattr(r, name) for r in rows]) for name in Coordination.__dataclass_fields__}
 
 

@@ -5,6 +5,11 @@ entropy of :mod:`.pore_size`; :data:`VARIABLES` names and describes each scalar.
 All lengths use the ACTUAL diameters; volumes and distances are reported in units of the mean diameter ā (so
 every measure is invariant under a uniform rescaling of box and diameters). Q6 and Voronoi are defined for d = 3
 only (NaN otherwise); contacts, g(r) and pore sizes work for d = 2..5.
+
+In a container (docs/containers_structure.md) the contacts count sphere-wall contacts and the container's isostatic
+count, Q6 and the crystalline fraction use bonds that never cross a wall, and the measures that handle only a
+periodic box (the Voronoi statistics, the pore-size entropy) are NaN, each with its reason in :func:`unavailable`;
+``container`` receives the container section (analysis/layers: profile, core phi, layers at the wall).
 """
 
 from __future__ import annotations
@@ -14,7 +19,8 @@ import time
 
 from ..core.packing import Packing
 from . import contacts as _contacts
-from .bond_order import bond_network, crystalline_fraction, steinhardt
+from . import layers as _layers
+from .bond_order import bond_network, crystalline_particles, steinhardt
 from .pore_size import pore_size_entropy
 from .voronoi import voronoi_statistics, voronoi_volumes
 
@@ -46,6 +52,24 @@ VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
+#: What a container packing leaves out of the record, and why (the variables of each part are NaN).
+NOT_IN_A_CONTAINER: dict[str, tuple[tuple[str, ...], str]] = {
+    "voronoi": (("voronoi_volume_mean", "voronoi_volume_std", "voronoi_k", "voronoi_entropy"),
+                "not available in a container (n/a: the radical Voronoi tessellation is periodic; cells bounded by "
+                "the walls are not implemented)"),
+    "pore_size_entropy": (("large_pore_fraction", "pore_size_entropy", "pore_samples"),
+                          "not available in a container (n/a: the pore sampling covers a periodic cube; sampling "
+                          "inside walls is not implemented)"),
+}
+
+
+def unavailable(packing: Packing) -> dict[str, str]:
+    """The parts of :func:`analyze` a packing's container leaves out (NaN in the record), with the reason of each."""
+    if packing.container.is_periodic_cube:
+        return {}
+    return {part: reason for part, (_, reason) in NOT_IN_A_CONTAINER.items()}
+
+
 def analyze(
     packing: Packing,
     *,
@@ -54,13 +78,15 @@ def analyze(
     seed: int = 0,
     pore_samples: int | None = None,
     timings: dict[str, float] | None = None,
+    container: dict | None = None,
 ) -> dict[str, float]:
     """All structural measures of ``packing`` as flat scalars named as in :data:`VARIABLES`.
 
     ``pressure`` (default: ``metadata["reduced_pressure"]``) sets the contact tolerance rule unless
     ``contact_tolerance`` is given (see :mod:`spherejam.analysis.contacts`); ``seed`` and ``pore_samples`` control the
     pore-size sampling (None: the reference convergence rule, >= 10^7 points). Q6 and Voronoi measures are NaN
-    for d != 3. ``timings``, if given, receives the wall time of each part in seconds.
+    for d != 3. ``timings``, if given, receives the wall time of each part in seconds. ``container``, if given and
+    the packing has walls, receives the container section (:func:`spherejam.analysis.layers.container_record`).
     """
     clock = {} if timings is None else timings
     t0 = time.perf_counter()
@@ -68,25 +94,33 @@ def analyze(
     result = out.coordination.as_dict()
     t1 = time.perf_counter()
     clock["contacts"] = t1 - t0
+    skip = unavailable(packing)
+    q_per = solid = None
     if packing.dim == 3:
         bonds = bond_network(packing)
-        q_global, q_local, _, _ = steinhardt(packing, 6, bonds=bonds)
-        crystalline, _ = crystalline_fraction(packing, bonds=bonds)
+        q_global, q_local, q_per, _ = steinhardt(packing, 6, bonds=bonds)
+        solid, _ = crystalline_particles(packing, bonds=bonds)
+        crystalline = float(solid.mean()) if solid.any() else 0.0
         t2 = time.perf_counter()
         clock["q6"] = t2 - t1
-        result.update(voronoi_statistics(voronoi_volumes(packing), packing.diameters))
+        if "voronoi" not in skip:
+            result.update(voronoi_statistics(voronoi_volumes(packing), packing.diameters))
         t3 = time.perf_counter()
         clock["voronoi"] = t3 - t2
     else:
         q_global = q_local = crystalline = math.nan
-        result.update({k: math.nan for k in ("voronoi_volume_mean", "voronoi_volume_std", "voronoi_k",
-                                             "voronoi_entropy")})
         t3 = time.perf_counter()
     result["q6_global"], result["q6_local"] = float(q_global), float(q_local)
     result["crystalline_fraction"] = float(crystalline)
-    s, p, used = pore_size_entropy(packing, seed=seed, samples=pore_samples)
-    result.update(pore_size_entropy=s, large_pore_fraction=p, pore_samples=float(used))
+    if "pore_size_entropy" not in skip:
+        s, p, used = pore_size_entropy(packing, seed=seed, samples=pore_samples)
+        result.update(pore_size_entropy=s, large_pore_fraction=p, pore_samples=float(used))
     clock["pore_size_entropy"] = time.perf_counter() - t3
+    for part in skip:
+        result.update({name: math.nan for name in NOT_IN_A_CONTAINER[part][0]})
+    result.update({k: math.nan for k in VARIABLES if k.startswith("voronoi_") and k not in result})
+    if container is not None and packing.container.has_walls and packing.dim == 3:
+        container.update(_layers.container_record(packing, out, q_per, solid))
     missing = set(VARIABLES) ^ set(result)
     assert not missing, f"analyze and VARIABLES disagree on {sorted(missing)}"
     return {k: result[k] for k in VARIABLES}

@@ -1,4 +1,6 @@
-"""``spherejam analyze``: contacts, rattlers, isostaticity, Q6, Voronoi and pore-size entropy of a packing file."""
+"""``spherejam analyze``: contacts, rattlers, isostaticity, Q6, Voronoi and pore-size entropy of a packing file; in a
+container also the porosity profile, the core phi and the structure by layer at the wall (docs/containers_structure.md).
+"""
 
 from __future__ import annotations
 
@@ -41,19 +43,25 @@ def _finite_or_none(value: float):
 
 def _analyze(args) -> int:
     from ..analysis.contacts import tolerance_scan
-    from ..analysis.structure import VARIABLES, analyze
+    from ..analysis.structure import VARIABLES, analyze, unavailable
     from ..core.atomic import atomic_output
     from ..core.packing_io import read_packing
 
     check_outputs({"-o/--output": args.output}, inputs={"path": args.path})
     packing = read_packing(args.path)
+    container: dict = {}
     result = analyze(
         packing, pressure=args.pressure, contact_tolerance=args.contact_tolerance, seed=args.seed,
-        pore_samples=args.pore_samples,
+        pore_samples=args.pore_samples, container=container,
     )
+    skipped = unavailable(packing)
     # top level: exactly the scalars of structure.VARIABLES (the workflow reads them into the dataset)
     record = {k: _finite_or_none(v) for k, v in result.items()}
     record["packing"] = {"path": str(args.path), "n": packing.n, "dim": packing.dim, "phi": packing.phi}
+    if skipped:
+        record["not_available"] = skipped
+    if container:
+        record["container"] = container
     if args.scan:
         scan = tolerance_scan(packing, pressure=args.pressure)
         record["tolerance_scan"] = {k: [_finite_or_none(float(x)) for x in v] for k, v in scan.items()}
@@ -67,6 +75,21 @@ def _analyze(args) -> int:
     print(f"{args.path}: N = {packing.n}, d = {packing.dim}, phi = {packing.phi:.10f}")
     for name, value in result.items():
         print(f"  {name:24s} {value:<14.8g} {VARIABLES[name][0]}")
+    for part, reason in skipped.items():
+        print(f"  {part:24s} {reason}")
+    if container:
+        core, achieved = container["core"], ", ".join(f"{k} = {v:.4g}" for k, v in container["achieved"].items())
+        print(f"  container {container['spec']}: {achieved} mean diameters; {container['wall_contacts']} wall "
+              f"contacts; isostatic count {container['isostatic_contacts']}")
+        phi_core = "not estimable" if core["phi"] is None else f"{core['phi']:.6f}"
+        print(f"  core phi ({core['distance']:g} d from every wall, {core['volume_fraction']:.3f} of the volume): "
+              f"{phi_core}")
+        layers = container["layers"]
+        print("  layer  n      contacts  wall  rattlers  q6_local  crystalline")
+        for m, n in enumerate(layers["n"]):
+            row = [layers[k][m] for k in ("contacts_mean", "wall_contacts_mean", "rattler_fraction", "q6_local",
+                                          "crystalline_fraction")]
+            print(f"  {m:5d}  {n:5d}  " + "  ".join("     n/a" if x is None else f"{x:8.4f}" for x in row))
     if args.scan:
         s = record["tolerance_scan"]
         print("  tolerance      Z(all)    Z(non-rattlers)  rattlers  K'-K0")

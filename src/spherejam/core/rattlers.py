@@ -1,8 +1,10 @@
 """Rattlers of a contact graph: the particles outside its k-core (k = d + 1 for a jammed packing in d dimensions).
 
 A particle with fewer than k contacts with non-rattlers is a rattler, recursively; the fixed point is the k-core,
-computed by peeling in O(N + K). Both the contact analysis of a packing (:mod:`spherejam.analysis.contacts`, contacts
-by gap) and CALiPPSO's certificate (contacts by LP dual) take their rattlers from here.
+computed by peeling in O(N + K). A contact with a body that is never a rattler (a container's wall) counts for its
+particle through ``fixed`` (contacts per particle that peeling never removes). Both the contact analysis of a packing
+(:mod:`spherejam.analysis.contacts`, contacts by gap) and CALiPPSO's certificate (contacts by LP dual) take their
+rattlers from here.
 """
 
 from __future__ import annotations
@@ -14,11 +16,12 @@ from .errors import require
 
 
 @njit(cache=True)
-def k_core(n, pair_i, pair_j, k):
+def k_core(n, pair_i, pair_j, k, fixed):
     """Membership of the k-core of the graph with n nodes and edges (pair_i, pair_j): True = in the core.
 
     Peels nodes of degree < k one at a time, updating the degrees of their neighbours (Batagelj-Zaversnik style),
-    which gives the same fixed point as the recursive "fewer than k contacts with non-rattlers" rule.
+    which gives the same fixed point as the recursive "fewer than k contacts with non-rattlers" rule. ``fixed[v]``
+    adds to the degree of v edges to nodes outside the graph that are never peeled (walls).
     """
     m = pair_i.shape[0]
     degree = np.zeros(n, dtype=np.int64)
@@ -36,6 +39,8 @@ def k_core(n, pair_i, pair_j, k):
         fill[a] += 1
         adj[fill[b]] = a
         fill[b] += 1
+    for v in range(n):  # the CSR above holds the graph's own edges; the fixed ones only count
+        degree[v] += fixed[v]
     alive = np.ones(n, dtype=np.bool_)
     stack = np.empty(n, dtype=np.int64)
     top = 0
@@ -58,10 +63,15 @@ def k_core(n, pair_i, pair_j, k):
     return alive
 
 
-def rattler_mask(n: int, pair_i: np.ndarray, pair_j: np.ndarray, min_contacts: int) -> np.ndarray:
-    """True for rattlers: particles outside the ``min_contacts``-core of the contact graph."""
+def rattler_mask(n: int, pair_i: np.ndarray, pair_j: np.ndarray, min_contacts: int,
+                 fixed: np.ndarray | None = None) -> np.ndarray:
+    """True for rattlers: particles outside the ``min_contacts``-core of the contact graph. ``fixed`` (N,): contacts
+    of each particle with bodies that are never rattlers (a container's walls), counted toward its contacts."""
     require(int(min_contacts) == min_contacts and min_contacts >= 1, "min_contacts", min_contacts,
             "must be an integer >= 1")
     pair_i = np.ascontiguousarray(pair_i, dtype=np.int64)
     pair_j = np.ascontiguousarray(pair_j, dtype=np.int64)
-    return ~k_core(int(n), pair_i, pair_j, int(min_contacts))
+    fixed = np.zeros(int(n), dtype=np.int64) if fixed is None else np.ascontiguousarray(fixed, dtype=np.int64)
+    require(fixed.shape == (int(n),) and bool(np.all(fixed >= 0)), "fixed", fixed.shape,
+            f"must be ({int(n)},) counts >= 0")
+    return ~k_core(int(n), pair_i, pair_j, int(min_contacts), fixed)
