@@ -25,7 +25,7 @@ from ..core.provenance import spherejam_version
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
 COMMAND_MODULES = ("packing_commands", "psd", "rcp", "run", "workflow_commands", "analyze", "calippso", "fb", "ls",
-                   "mls", "cost", "render")
+                   "mls", "cost", "render", "view")
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
