@@ -71,7 +71,7 @@ import spherejam
 r = spherejam.jam(n=64, psd="lognormal:sigma=0.2", closest={"final_rate": 1e-1}, certify=True, seed=3)
 print(r)
 assert r.phi < r.phi_J < 0.7 and r.certificate.isostatic, r
-spherejam.write_packing(r.packing, "jam.h5")
+spherejam.write_packing("jam.h5", r.packing)
 EOF
 "$SJ" view jam.h5 -o jam.html
 JAMMED=$(find out/packings -name jammed.h5 | head -1)
