@@ -1,10 +1,11 @@
 """``spherejam rcp SPEC ...``: one command from a particle-size distribution to phi_LT and phi_RCP (docs/psd.md).
 
-It fills the workflow template ``config/psd.yaml`` (of the workflow packaged with spherejam, or ``--workflow``) with the distributions and sizes given, writes it into the results
-folder, prints the cost estimate, runs the workflow (``snakemake``, as a separate program: the package does not import
-it) with its live progress, and prints phi_LT and phi_RCP with their intervals beside the three published models. The
-workflow writes the usual dataset, tables and Fig. 5; running the command again resumes where it stopped. It runs
-in the current folder (Snakemake's ``.snakemake/`` goes there; relative ``table:`` files are read from there).
+It fills the workflow template ``config/psd.yaml`` (of the workflow packaged with spherejam, or ``--workflow``) with
+the distributions and sizes given, writes it into the results folder, prints the cost estimate, runs the workflow
+(``snakemake``, as a separate program: the package does not import it) with its live progress, and prints phi_LT and
+phi_RCP with their intervals beside the three published models. The workflow writes the usual dataset, tables and
+Fig. 5; running the command again resumes where it stopped. It runs in the current folder (Snakemake's
+``.snakemake/`` goes there; relative ``table:`` files are read from there).
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ def register(sub) -> None:
     p.add_argument("-o", "--results", type=Path, default=Path("results") / "psd", help="results folder")
     p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=2, help="cores for the workflow (2)")
     p.add_argument("--workflow", type=Path, default=None,
-                   help="a folder with the Snakefile, rules/ and config/ (default: the workflow packaged with spherejam)")
+                   help="a folder with the Snakefile, rules/ and config/ (default: the workflow packaged with "
+                   "spherejam)")
     p.add_argument("--template", type=Path, default=None,
                    help=f"the workflow config to fill in (default: {TEMPLATE} of the workflow)")
     p.add_argument("--dry-run", action="store_true", help="print the config and the cost estimate only")

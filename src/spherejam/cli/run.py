@@ -98,8 +98,8 @@ def _init(args) -> int:
     present = [name for name, _ in files if (folder / name).exists()]
     if present:  # an edited experiment is never overwritten
         raise InputError(f"DIR={str(folder)!r}: already holds {present[0]} (choose a new folder)")
-    header = (f"# A spherejam experiment, from the package's config/{args.template}.yaml. Edit it, then run it from this "
-              "folder:\n#   spherejam run --configfile config.yaml          (add -n to see what it would run)\n"
+    header = (f"# A spherejam experiment, from the package's config/{args.template}.yaml. Edit it, then run it from "
+              "this folder:\n#   spherejam run --configfile config.yaml          (add -n to see what it would run)\n"
               "# The results go to the `results` folder below, relative to this folder. Every key is described in\n"
               "# the package's config/schema.yaml; a --configfile is the whole experiment (nothing is merged in).\n")
     for name, source in files:
