@@ -178,10 +178,9 @@ def jam(
     seed : int
         Master seed, 0 <= seed < 2^63: the same arguments and seed give the same packing.
     box : float, optional
-        Side L of the periodic cube in units of the mean nominal diameter (default: the side at which the nominal
-        diameters fill phi_nominal = 0.6, as the workflow's configs do). It is the nominal density
-        phi_nominal = sum of nominal sphere volumes / L^3 given as a length; it sets how far apart the seeded
-        centres start, not the jammed density's scale (the engines rescale the diameters).
+        Side L of the periodic cube, in units of the mean nominal diameter (default: the side at which the nominal
+        diameters fill 0.6 of it, as in the workflow's configs). The same as a nominal density phi_nominal = (sum of
+        nominal sphere volumes) / L^3: it sets how sparse the seeded start is; the engines rescale the diameters.
     p_max : float
         LS stops when the reduced pressure reaches this (the paper's 1e12).
     progress : bool
@@ -206,11 +205,12 @@ def jam(
     rate = DEFAULT_RATE[protocol] if rate is None else rate
     quiet = {} if progress else {"progress_interval": 1e9}  # no progress line within any run
     seeds = _seeds(seed)
-
-    start = poisson_packing(n, psd=psd, seed=seeds[0], phi_nominal=DEFAULT_PHI_NOMINAL)
     if box is not None:
         require(isinstance(box, (int, float, np.floating)) and math.isfinite(box) and box > 0, "box", box,
                 "must be a finite number > 0 (the side L of the periodic cube)")
+
+    start = poisson_packing(n, psd=psd, seed=seeds[0], phi_nominal=DEFAULT_PHI_NOMINAL)
+    if box is not None:
         nominal = start.nominal_diameters
         phi_nominal = float(np.sum(ball_volume(nominal, start.dim)) / box**start.dim)
         metadata = dict(start.metadata, parameters={**start.metadata["parameters"], "phi_nominal": phi_nominal})
