@@ -87,14 +87,17 @@ def spherejam(*args, cwd):
 
 
 def test_run_dry_run_from_an_empty_folder_takes_results_and_snakemake_options(tmp_path):
-    r = spherejam("run", "--configfile", str(ROOT / "config" / "tiny.yaml"), "-o", "out", "-n", "--cores", "1",
+    # a results folder whose name YAML reads as a number stays a folder name
+    r = spherejam("run", "--configfile", str(ROOT / "config" / "tiny.yaml"), "-o", "1e3", "-n", "--cores", "1",
                   cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     text = r.stdout + r.stderr
-    assert "out/dataset.nc" in text and "results-tiny" not in text  # -o replaces the config's results folder
+    assert "1e3/dataset.nc" in text and "results-tiny" not in text  # -o replaces the config's results folder
     assert "This was a dry-run" in text
     assert f"--snakefile {packaged.snakefile()}" in text
-    assert not (tmp_path / "out").exists()  # a dry run writes no result
+    run_config = yaml.safe_load((tmp_path / "1e3" / "run_config.yaml").read_text())  # the config as run
+    assert run_config == {**yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text()), "results": "1e3"}
+    assert sorted(p.name for p in (tmp_path / "1e3").iterdir()) == ["run_config.yaml"]  # a dry run makes nothing
 
 
 def test_run_refuses_a_missing_config_and_other_commands_refuse_unknown_options(tmp_path, capsys):

@@ -2,9 +2,9 @@
 
 ``spherejam run`` is ``snakemake`` on the packaged Snakefile (:mod:`spherejam.workflow.packaged`) in the current
 folder: the default experiment (``config/config.yaml`` of the package) or the ``--configfile`` given, its results in
-the config's ``results`` folder or ``-o``. Options it does not know go to Snakemake as they are (``-n``, targets,
-``--forceall``, ``--profile``...). Snakemake takes its default options from ``profiles/default/config.yaml`` of the
-current folder if there is one, else the package's (2 cores on this machine's scale).
+the config's ``results`` folder or in ``-o`` (which then gets the config as run, ``run_config.yaml``). Options it does
+not know go to Snakemake as they are (``-n``, targets, ``--forceall``, ``--profile``...). Snakemake takes its default
+options from ``profiles/default/config.yaml`` of the current folder if there is one, else the package's (2 cores).
 
 ``spherejam init DIR`` writes an experiment folder to edit: ``config.yaml`` (a packaged config with its comments),
 ``profiles/default/config.yaml`` (the local profile) and ``powder.csv`` (the measured-PSD example the config's
@@ -35,7 +35,7 @@ def register(sub) -> None:
     p.add_argument("--configfile", type=Path, default=None,
                    help="the experiment (default: the package's config/config.yaml; `spherejam init` writes one to "
                    "edit)")
-    p.add_argument("-o", "--results", type=Path, default=None,
+    p.add_argument("-o", "--results", default=None,
                    help="results folder (default: the config's `results`, relative to this folder)")
     p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=None,
                    help="cores for the workflow (default: the profile's, 2)")
@@ -52,28 +52,48 @@ def register(sub) -> None:
     p.set_defaults(func=_init)
 
 
+#: With -o, the config as run (the given one with ``results`` replaced) is written into the results folder as this.
+RUN_CONFIG = "run_config.yaml"
+
+
 def run_arguments(args, extra: list[str]) -> list[str]:
-    """Snakemake's arguments for ``spherejam run``: the packaged Snakefile, the config, the options given."""
+    """Snakemake's arguments for ``spherejam run``: the packaged Snakefile, the config, the options given.
+
+    With ``-o`` the config is copied into that folder with ``results`` replaced, and the copy is run (Snakemake's
+    ``--config results=...`` would read a folder named ``1e3`` as the number 1000)."""
     from ..workflow import packaged
 
     config = args.configfile if args.configfile is not None else packaged.config_file("config")
     if not config.is_file():
         raise InputError(f"--configfile={str(config)!r}: no such file")
-    out = ["--snakefile", str(packaged.snakefile()), "--configfile", str(config.resolve())]
     if args.results is not None:
-        if str(args.results).strip() == "":
-            raise InputError("-o/--results='': an empty path")
-        # one key over the config; quoted so that Snakemake keeps it a string (a folder named 1e3 stays one)
-        out += ["--config", f"results={_yaml_string(str(args.results))}"]
+        config = _config_with_results(config, args.results)
+    out = ["--snakefile", str(packaged.snakefile()), "--configfile", str(config.resolve())]
     if args.cores is not None:
         out += ["--cores", str(args.cores)]
     return out + list(extra)
 
 
-def _yaml_string(text: str) -> str:
-    import json
+def _config_with_results(config: Path, results: str) -> Path:
+    import yaml
 
-    return json.dumps(text)  # a JSON string is a YAML string
+    from ..core.atomic import atomic_output
+    from ..workflow.config import load_config_file
+
+    if results.strip() == "":
+        raise InputError(f"-o/--results={results!r}: an empty path")
+    data = load_config_file(config)
+    if not isinstance(data, dict):
+        raise InputError(f"--configfile={str(config)!r}: not a mapping of config keys")
+    data["results"] = results
+    target = Path(results) / RUN_CONFIG
+    if target.exists() and target.resolve() == config.resolve():  # run again from its own copy: nothing to write
+        return config
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(target, ".yaml") as tmp:
+        Path(tmp).write_text(f"# spherejam run: {config.resolve()} with results: {results}\n"
+                             + yaml.safe_dump(data, sort_keys=False))
+    return target
 
 
 def _run(args) -> int:
