@@ -5,7 +5,8 @@ Soft Matter 10, 3826 (2014), and certifies jamming with CALiPPSO (Artiaco et al.
 
 The layout follows the pipeline (docs/layout.md): ``core`` (the packing, its files, the cell list), ``engines``
 (LS, MLS, FB), ``calippso``, ``analysis``, ``workflow``, ``formats`` and ``cli``. The functions a script needs are
-importable from here: ``from spherejam import poisson_packing, run_ls, find_closest_jamming``.
+importable from here: ``from spherejam import poisson_packing, run_ls, find_closest_jamming``, and the one call
+that composes them, ``spherejam.jam(n=1000, psd="lognormal:sigma=0.3")`` (docs/python.md).
 """
 
 from .core.errors import InputError, OverlapError, PackingFileError, SimulationError, SpherejamError
@@ -25,12 +26,15 @@ _API = {
     "run_fb": "engines.force_biased",
     "RunResult": "engines.result",
     "run_calippso": "calippso.run",
+    "CalippsoResult": "calippso.run",
+    "jam": "jamming",
+    "JamResult": "jamming",
 }
 
 __all__ = [
-    "InputError", "OverlapError", "Packing", "PackingFileError", "RunResult", "SimulationError", "SpherejamError",
-    "__version__", "find_closest_jamming", "poisson_packing", "read_packing", "run_calippso", "run_fb", "run_ls",
-    "write_packing",
+    "CalippsoResult", "InputError", "JamResult", "OverlapError", "Packing", "PackingFileError", "RunResult",
+    "SimulationError", "SpherejamError", "__version__", "find_closest_jamming", "jam", "poisson_packing",
+    "read_packing", "run_calippso", "run_fb", "run_ls", "write_packing",
 ]
 
 

@@ -24,8 +24,8 @@ from ..core.progress import live_status
 from ..core.provenance import spherejam_version
 
 #: Modules providing subcommands, in the order they appear in ``--help``.
-COMMAND_MODULES = ("packing_commands", "psd", "rcp", "workflow_commands", "analyze", "calippso", "fb", "ls", "mls",
-                   "cost", "render")
+COMMAND_MODULES = ("packing_commands", "psd", "rcp", "run", "workflow_commands", "analyze", "calippso", "fb", "ls",
+                   "mls", "cost", "render", "view")
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -59,7 +59,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        # a command that hands the options it does not know to another program (`run`: Snakemake) gets them as
+        # args.extra; every other command refuses them, as parse_args would
+        args, extra = parser.parse_known_args(argv)
+        if extra and not getattr(args, "passthrough", False):
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        args.extra = extra
     except SystemExit as exc:  # a usage error (2), --help or --version (0): returned like every other outcome
         return int(exc.code or 0)
     # Only spherejam's own progress lines at INFO: other packages' INFO lines (freud's "Using SciPy's fftpack")

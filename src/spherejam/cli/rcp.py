@@ -1,16 +1,17 @@
 """``spherejam rcp SPEC ...``: one command from a particle-size distribution to phi_LT and phi_RCP (docs/psd.md).
 
-It fills the workflow template ``config/psd.yaml`` with the distributions and sizes given, writes it into the results
-folder, prints the cost estimate, runs the workflow (``snakemake``, as a separate program: the package does not import
-it) with its live progress, and prints phi_LT and phi_RCP with their intervals beside the three published models. The
-workflow writes the usual dataset, tables and Fig. 5; running the command again resumes where it stopped.
+It fills the workflow template ``config/psd.yaml`` (of the workflow packaged with spherejam, or ``--workflow``) with
+the distributions and sizes given, writes it into the results folder, prints the cost estimate, runs the workflow
+(``snakemake``, as a separate program: the package does not import it) with its live progress, and prints phi_LT and
+phi_RCP with their intervals beside the three published models. The workflow writes the usual dataset, tables and
+Fig. 5; running the command again resumes where it stopped. It runs in the current folder (Snakemake's
+``.snakemake/`` goes there; relative ``table:`` files are read from there).
 """
 
 from __future__ import annotations
 
 import math
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -20,7 +21,7 @@ from ..core.output_paths import check_output_dir
 from ..core.validation import FIELDS
 from . import seed_int
 
-TEMPLATE = Path("config") / "psd.yaml"
+TEMPLATE = Path("config") / "psd.yaml"  # of the workflow folder
 _NAME = re.compile(r"^([A-Za-z][A-Za-z0-9_-]*)=(.+)$")
 
 
@@ -29,8 +30,8 @@ def register(sub) -> None:
                        "(docs/psd.md)",
                        description="Runs the workflow template config/psd.yaml (fast LS and FB compressions, each "
                        "followed by MLS and CALiPPSO) for the distributions given and prints phi_LT and phi_RCP with "
-                       "their intervals beside the Farr-Groot, Desmond-Weeks and Santos et al. models. Run it from "
-                       "the spherejam repository (it needs the Snakefile).")
+                       "their intervals beside the Farr-Groot, Desmond-Weeks and Santos et al. models. Runs from any "
+                       "folder: the workflow ships in the package.")
     p.add_argument("specs", nargs="+", metavar="[NAME=]SPEC",
                    help="size distributions, e.g. powder=table:examples/powder.csv gauss=gaussian:delta=0.2")
     p.add_argument("--n", type=FIELDS["n"].arg, default=None, help="spheres per packing (template: 200)")
@@ -39,9 +40,11 @@ def register(sub) -> None:
     p.add_argument("--seed", type=seed_int, default=None, help="master seed (template: 2014)")
     p.add_argument("-o", "--results", type=Path, default=Path("results") / "psd", help="results folder")
     p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=2, help="cores for the workflow (2)")
-    p.add_argument("--workflow", type=Path, default=Path("."), help="the repository with the Snakefile (.)")
+    p.add_argument("--workflow", type=Path, default=None,
+                   help="a folder with the Snakefile, rules/ and config/ (default: the workflow packaged with "
+                   "spherejam)")
     p.add_argument("--template", type=Path, default=None,
-                   help=f"the workflow config to fill in (default: {TEMPLATE} of the repository)")
+                   help=f"the workflow config to fill in (default: {TEMPLATE} of the workflow)")
     p.add_argument("--dry-run", action="store_true", help="print the config and the cost estimate only")
     p.set_defaults(func=_rcp)
 
@@ -66,14 +69,22 @@ def named_specs(items: list[str]) -> dict[str, str]:
     return out
 
 
+def workflow_folder(args) -> Path:
+    """The workflow ``--workflow`` names, or the one packaged with spherejam."""
+    from ..workflow.packaged import workflow_dir
+
+    return workflow_dir() if args.workflow is None else args.workflow
+
+
 def build_config(args) -> dict:
     from ..core.size_distribution import parse
     from ..workflow.config import load_config_file
 
-    template = args.template or args.workflow / TEMPLATE
-    if not (args.workflow / "Snakefile").is_file():
-        raise InputError(f"--workflow={str(args.workflow)!r}: no Snakefile there (run from the spherejam "
-                         "repository, or give its path)")
+    workflow = workflow_folder(args)
+    template = args.template or workflow / TEMPLATE
+    if not (workflow / "Snakefile").is_file():
+        raise InputError(f"--workflow={str(workflow)!r}: no Snakefile there (give a folder holding the Snakefile, "
+                         "rules/ and config/, or leave --workflow out for the packaged workflow)")
     config = load_config_file(template, "--template", empty_ok=False)  # the loader `spherejam cost` uses
     dists = named_specs(args.specs)
     for name, spec in dists.items():
@@ -93,10 +104,12 @@ def _rcp(args) -> int:
     from ..workflow.config import validate_config
     from ..workflow.cost_model import plan, print_plan
     from ..workflow.experiment import Experiment
+    from ..workflow.packaged import snakemake_command
 
     check_output_dir("-o/--results", args.results)  # a file there: one line naming the option, before any work
     config = build_config(args)
-    validate_config(config, args.workflow / "config" / "schema.yaml")
+    workflow = workflow_folder(args)
+    validate_config(config, workflow / "config" / "schema.yaml")
     exp = Experiment(config)
     print(f"spherejam rcp: N = {exp.largest_n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
           f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
@@ -109,8 +122,6 @@ def _rcp(args) -> int:
     if args.dry_run:
         print(yaml.safe_dump(config, sort_keys=False))
         return 0
-    if shutil.which("snakemake") is None:
-        raise SpherejamError("snakemake: not found on PATH (pip install snakemake)")
     cfg_path = exp.results / "config.yaml"
     cfg_path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(cfg_path, ".yaml") as tmp:
@@ -118,12 +129,12 @@ def _rcp(args) -> int:
     targets = [exp.paths.dataset, *exp.paths.tables(["csv", "md"]), exp.paths.figure("png", "fig5")]
     log = exp.results / "logs" / "rcp-snakemake.log"
     log.parent.mkdir(parents=True, exist_ok=True)
-    cmd = ["snakemake", "--cores", str(args.cores), "--configfile", str(cfg_path.resolve()), "--snakefile",
-           str((args.workflow / "Snakefile").resolve()), "--directory", str(args.workflow.resolve()),
-           "--rerun-incomplete", "--keep-going", *targets]
+    snakemake, env = snakemake_command()
+    cmd = [*snakemake, "--cores", str(args.cores), "--configfile", str(cfg_path.resolve()), "--snakefile",
+           str((workflow / "Snakefile").resolve()), "--rerun-incomplete", "--keep-going", *targets]
     print(f"running: {' '.join(cmd)}  (full log: {log})", flush=True)
     with open(log, "w") as fh:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
         for line in proc.stdout:  # live progress: the workflow's step counter and any error
             fh.write(line)
             fh.flush()

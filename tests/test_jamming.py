@@ -1,0 +1,44 @@
+"""spherejam.jam(): the one call composes seeding, generation, MLS and CALiPPSO reproducibly, and checks its input
+(the worked example with certification is docs/python.md, run by tests/test_python_docs.py)."""
+
+import numpy as np
+import pytest
+
+import spherejam
+from spherejam.core.errors import InputError
+
+QUICK_MLS = {"final_rate": 1e-1}
+
+
+def test_same_seed_same_packing_other_seed_another():
+    a = spherejam.jam(n=40, psd="gaussian:delta=0.2", protocol="fb", rate=0.01, closest=QUICK_MLS, seed=5)
+    b = spherejam.jam(n=40, psd="gaussian:delta=0.2", protocol="fb", rate=0.01, closest=QUICK_MLS, seed=5)
+    c = spherejam.jam(n=40, psd="gaussian:delta=0.2", protocol="fb", rate=0.01, closest=QUICK_MLS, seed=6)
+    np.testing.assert_array_equal(a.packing.positions, b.packing.positions)
+    assert a.phi_J == b.phi_J and a.phi_J != c.phi_J
+    assert a.packing.check().ok  # no overlap beyond the file tolerance
+    assert a.phi < a.phi_J  # MLS compresses the FB output further
+    assert a.pressure >= 1e12 * 0.1 and a.packing.metadata["algorithm"] == "mls"
+    assert len(set(a.provenance["seeds"].values())) == 3  # independent streams for seeding, generation, MLS
+
+
+def test_fb_without_closest_has_no_pressure_and_box_sets_the_side():
+    r = spherejam.jam(n=30, protocol="fb", rate=0.01, closest=False, seed=2, box=7.5)
+    assert r.phi_J is None and r.pressure is None and r.certificate is None and r.stop_reason == "converged"
+    assert r.packing.box == 7.5 and r.provenance["box"] == 7.5
+    assert r.runs["generation"].packing is r.packing
+    df = r.to_pandas()
+    assert list(df.columns) == ["x", "y", "z", "diameter"] and len(df) == 30
+    assert "phi_J" not in r.to_xarray().attrs  # None is left out of the netCDF attributes
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"protocol": "mls"}, "protocol="),
+    ({"seed": -1}, "seed="),
+    ({"box": 0.0}, "box="),
+    ({"closest": "yes"}, "closest="),
+    ({"psd": "nonsense:x=1"}, "nonsense"),
+])
+def test_bad_argument_is_one_input_error_naming_it(kwargs, field):
+    with pytest.raises(InputError, match=field):
+        spherejam.jam(n=10, **kwargs)
