@@ -42,3 +42,25 @@ def test_fb_without_closest_has_no_pressure_and_box_sets_the_side():
 def test_bad_argument_is_one_input_error_naming_it(kwargs, field):
     with pytest.raises(InputError, match=field):
         spherejam.jam(n=10, **kwargs)
+
+
+def test_jam_in_a_container():
+    """A column by one call: the packing keeps its container, no sphere crosses the wall, the same seed gives the same
+    packing; a container with a box, or with a certificate (not yet), is refused in one line."""
+    import numpy as np
+    import pytest
+
+    from spherejam import jam
+    from spherejam.core.errors import InputError
+
+    a = jam(200, "lognormal:sigma=0.3", container="cylinder:diameter=5", closest={"final_rate": 1e-1}, seed=4)
+    b = jam(200, "lognormal:sigma=0.3", container="cylinder:diameter=5", closest={"final_rate": 1e-1}, seed=4)
+    c = a.packing.container
+    assert c.curved == "cylinder" and a.provenance["container"] == c.spec and np.array_equal(a.packing.positions,
+                                                                                              b.packing.positions)
+    assert c.wall_penetration(a.packing.positions, a.packing.diameters)[0] <= 1e-10 and a.packing.check().ok
+    assert 0.45 < a.phi_J < 0.64
+    with pytest.raises(InputError, match="box"):
+        jam(200, container="slab:height=4", box=8.0)
+    with pytest.raises(InputError, match="certify"):
+        jam(200, container="slab:height=4", certify=True)

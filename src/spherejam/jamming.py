@@ -4,8 +4,8 @@
 (:func:`~spherejam.core.seeding.poisson_packing`), generation by LS (:func:`~spherejam.engines.lubachevsky_stillinger.
 run_ls`) or FB (:func:`~spherejam.engines.force_biased.run_fb`), the closest jamming search MLS
 (:func:`~spherejam.engines.closest_jamming.find_closest_jamming`) and CALiPPSO certification
-(:func:`~spherejam.calippso.run.run_calippso`). Every argument after ``psd`` is keyword-only, so that the domain can
-grow beyond the periodic cube (a ``container`` beside ``box``) without changing a call that works today.
+(:func:`~spherejam.calippso.run.run_calippso`). Every argument after ``psd`` is keyword-only. ``container`` packs in
+a slab, a box, a cylinder or a sphere (docs/containers.md) instead of the periodic cube.
 
 Seeds: the one ``seed`` is split by numpy's SeedSequence into the seeding, generation and MLS streams, so the same
 arguments give bitwise the same packing.
@@ -153,6 +153,7 @@ def jam(
     certify: bool | Mapping[str, Any] = False,
     seed: int = 0,
     box: float | None = None,
+    container: str | None = None,
     p_max: float = 1e12,
     progress: bool = False,
 ) -> JamResult:
@@ -181,6 +182,12 @@ def jam(
         Side L of the periodic cube, in units of the mean nominal diameter (default: the side at which the nominal
         diameters fill 0.6 of it, as in the workflow's configs). The same as a nominal density phi_nominal = (sum of
         nominal sphere volumes) / L^3: it sets how sparse the seeded start is; the engines rescale the diameters.
+    container : str, optional
+        A container spec (docs/containers.md): ``cylinder:diameter=10`` (a column, D/<d> = 10, its length from N),
+        ``slab:height=8``, ``box:x=10,y=10,z=10``, ``sphere:diameter=12`` (N from its size: ``n=None``),
+        ``periodic:x=10,y=10,z=40``; lengths in mean diameters of the final packing, the achieved ones in
+        ``result.packing.container.in_diameters(result.packing.mean_diameter)``. Not with ``box``; CALiPPSO
+        (``certify``) does not take a container yet and refuses it in one line.
     p_max : float
         LS stops when the reduced pressure reaches this (the paper's 1e12).
     progress : bool
@@ -209,7 +216,13 @@ def jam(
         require(isinstance(box, (int, float, np.floating)) and math.isfinite(box) and box > 0, "box", box,
                 "must be a finite number > 0 (the side L of the periodic cube)")
 
-    start = poisson_packing(n, psd=psd, seed=seeds[0], phi_nominal=DEFAULT_PHI_NOMINAL)
+    if container is not None:
+        require(box is None, "box", box, "must be left out with a container (the container sets the size)")
+        require(calippso_options is None, "certify", certify, "CALiPPSO does not take a container yet "
+                "(docs/containers.md §5)")
+        start = poisson_packing(n, psd=psd, seed=seeds[0], container=container)
+    else:
+        start = poisson_packing(n, psd=psd, seed=seeds[0], phi_nominal=DEFAULT_PHI_NOMINAL)
     if box is not None:
         nominal = start.nominal_diameters
         phi_nominal = float(np.sum(ball_volume(nominal, start.dim)) / box**start.dim)
@@ -233,7 +246,7 @@ def jam(
     pressure = final.packing.metadata.get("reduced_pressure")
     pressure = float(pressure) if pressure is not None and math.isfinite(float(pressure)) else None
     call = {"n": n, "psd": psd, "protocol": protocol, "rate": rate, "closest": closest, "certify": certify,
-            "seed": seed, "box": box, "p_max": p_max}
+            "seed": seed, "box": box, "container": container, "p_max": p_max}
     return JamResult(
         packing=final.packing,
         phi=float(generation.packing.phi),
@@ -242,6 +255,6 @@ def jam(
         stop_reason=final.stats.stop_reason,
         certificate=certificate,
         provenance={"call": call, "seeds": {"seeding": seeds[0], "generation": seeds[1], "closest": seeds[2]},
-                    "box": float(start.box), **provenance()},
+                    "box": float(start.box), "container": start.container.spec, **provenance()},
         runs=runs,
     )
