@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from .ours import classify
-from .significance import MIN_PAIRS_FOR_TEST, censored_phi_sign_test, censored_sign_test, fisher_line, tests
+from .significance import (MIN_PAIRS_FOR_TEST, censored_phi_sign_test, censored_sign_test, fisher_line,
+                           paired_difference, tests)
 from .stages import LATE_RATE, UNJAM_PRESSURE, stage_figures
 
 def _fmt(values, digits=4) -> str:
@@ -120,6 +121,8 @@ def summarize(out: Path) -> None:
         started = [(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res]
         print("- phi_J with capped searches bounded below by phi at the cap: " + censored_phi_sign_test(started))
         print(f"- phi_J test: {tests([o['phi_J'] for o, _ in complete], [c['phi_J'] for _, c in complete])}")
+        print("- phi_J paired difference: "
+              + paired_difference([o["phi_J"] for o, _ in complete], [c["phi_J"] for _, c in complete]))
         # cost per collision does not need a finished search
         both = [(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res
                 and res["ours"].get("collisions") and res["cpp"].get("collisions")]

@@ -147,3 +147,59 @@ def test_a_pair_is_claimed_by_one_live_worker(tmp_path):
     lock.write_text("999999999")  # a worker that died
     assert locks.claim(lock)
     assert lock.read_text() == str(os.getpid())
+
+
+def test_power_of_the_paired_t_test():
+    # textbook value: one-sample/paired t, effect size 0.5, n = 20, two-sided alpha = 0.05 -> power 0.5645
+    assert significance.paired_t_power(20, 1.0, 0.5) == pytest.approx(0.5645, abs=5e-4)
+    assert significance.paired_t_power(12, 0.003, 0.0) == pytest.approx(0.05, abs=1e-9)  # no effect: the level
+    # against simulation: the rejection rate of the t-test on normal differences with mean delta
+    from scipy import stats
+
+    n, sd, delta = 8, 0.002, 0.0015
+    d = np.random.default_rng(4).normal(delta, sd, size=(20000, n))
+    simulated = float(np.mean(stats.ttest_1samp(d, 0.0, axis=1).pvalue < 0.05))
+    assert significance.paired_t_power(n, sd, delta) == pytest.approx(simulated, abs=0.015)
+    # the detectable difference is where the power reaches 80 %, and it shrinks like 1/sqrt(n)
+    m = significance.detectable_difference(20, 0.0036)
+    assert significance.paired_t_power(20, 0.0036, m) == pytest.approx(0.8, abs=1e-6)
+    assert significance.detectable_difference(80, 0.0036) == pytest.approx(m / 2, rel=0.05)
+
+
+def _record(code, phi_j, cpu, collisions=1e8):
+    return {"code": code, "phi_J": phi_j, "stop": "final_rate", "capped": False, "cpu_s": cpu,
+            "collisions": collisions, "windows": 3, "max_collisions": 10**9, "phi_start": 0.62,
+            "history": {"rate": [10.0, 0.0, 5.0], "pressure": [2e12, 5e11, 2e12], "phi": [0.64, 0.64, phi_j]}}
+
+
+def _write_cell(folder, diffs, rng):
+    for k, d in enumerate(diffs, start=1):
+        pair = folder / f"pair-{k:04d}"
+        pair.mkdir(parents=True)
+        phi = 0.66 + 0.003 * rng.standard_normal()
+        (pair / "ours.json").write_text(json.dumps(_record("ours", phi + d, 50.0)))
+        (pair / "cpp.json").write_text(json.dumps(_record("cpp", phi, 300.0, 1.2e8)))
+
+
+def test_summary_gives_paired_difference_interval_and_power(tmp_path, capsys):
+    """Synthetic records with a known shift: the summary's interval is the t-interval of the differences, and too few
+    pairs print "not estimable"."""
+    from scipy import stats
+
+    report = importlib.import_module("parity.report")
+    rng = np.random.default_rng(7)
+    diffs = 0.002 + 0.001 * rng.standard_normal(12)
+    _write_cell(tmp_path / "out" / "N500-sigma0.3-ls0.5", diffs, rng)
+    _write_cell(tmp_path / "out" / "N1000-sigma0.3-ls0.5", diffs[:4], rng)
+    report.summarize(tmp_path / "out")
+    text = capsys.readouterr().out
+    big, small = text.split("## N500")[1], text.split("## N500")[0]
+    line = next(x for x in big.splitlines() if x.startswith("- phi_J paired difference"))
+    half = stats.t.ppf(0.975, 11) * diffs.std(ddof=1) / np.sqrt(12)
+    assert f"ours - C++ = {diffs.mean():+.5f}" in line
+    assert f"95 % CI [{diffs.mean() - half:+.5f}, {diffs.mean() + half:+.5f}]" in line
+    assert f"Wilcoxon signed-rank p = {stats.wilcoxon(diffs).pvalue:.3g}" in line
+    power = significance.paired_t_power(12, diffs.std(ddof=1), 1e-3)
+    assert f"power to detect |diff| = 0.001: {power:.2f}" in line and 0.0 < power < 1.0
+    assert "- speed ratio per search, C++ CPU / our CPU: median 6" in big
+    assert "- phi_J paired difference: not estimable (n = 4" in small
