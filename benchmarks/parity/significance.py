@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from .stages import phi_end, stage_list
+
 #: Fewer complete pairs than this: tests and spreads are printed as "not estimable".
 MIN_PAIRS_FOR_TEST = 5
 
@@ -80,8 +82,7 @@ def paired_difference(ours: list[float], cpp: list[float], delta: float = TARGET
 
 
 def _phi_end(r: dict) -> float | None:
-    phi = (r.get("history") or {}).get("phi")
-    return r["phi_J"] if r["phi_J"] is not None else (phi[-1] if phi else None)
+    return r["phi_J"] if r["phi_J"] is not None else phi_end(r)
 
 
 def censored_phi_sign_test(pairs: list[tuple[dict, dict]]) -> str:
@@ -140,7 +141,7 @@ def fisher_line(rows: dict[str, list]) -> str:
     """Fisher's exact test: do late stages unjam (p_min < 1e6) as often in both codes?"""
     counts = {}
     for code in ("ours", "cpp"):
-        late = [u for _, r in rows[code] if r.get("history", {}).get("rate") for _, u in r["stage"]["late"]]
+        late = [u for _, r in rows[code] if stage_list(r) for _, u in r["stage"]["late"]]
         counts[code] = (sum(late), len(late) - sum(late))
     (a, b), (c, d) = counts["ours"], counts["cpp"]
     text = f"{a} of {a + b} against {c} of {c + d}"

@@ -203,3 +203,25 @@ def test_summary_gives_paired_difference_interval_and_power(tmp_path, capsys):
     assert f"power to detect |diff| = 0.001: {power:.2f}" in line and 0.0 < power < 1.0
     assert "- speed ratio per search, C++ CPU / our CPU: median 6" in big
     assert "- phi_J paired difference: not estimable (n = 4" in small
+
+
+def test_compact_records_summarize_like_the_full_ones(tmp_path, capsys):
+    """The committed records drop the per-window history; the summary from them is the same, capped searches too."""
+    report = importlib.import_module("parity.report")
+    rng = np.random.default_rng(3)
+    out = tmp_path / "out" / "N500-sigma0.3-ls0.5"
+    _write_cell(out, 0.001 * rng.standard_normal(6), rng)
+    late = {"rate": [10.0, 0.0, 1.5e-4, 0.0, 7.6e-5], "pressure": [2e12, 5e11, 1e5, 5e11, 2e12],
+            "phi": [0.64, 0.64, 0.65, 0.65, 0.6601]}
+    capped = dict(_record("cpp", None, 900.0), capped=True, stop="capped", history=late)
+    (out / "pair-0002" / "cpp.json").write_text(json.dumps(capped))
+    report.summarize(tmp_path / "out")
+    full = capsys.readouterr().out
+    mp.main(["--out", str(tmp_path / "out"), "--export-records", str(tmp_path / "rec")])
+    rec = json.loads((tmp_path / "rec" / out.name / "pair-0002" / "cpp.json").read_text())
+    assert "history" not in rec and rec["phi_end"] == 0.6601 and len(rec["stages"]) == 5
+    report.summarize(tmp_path / "rec")
+    assert capsys.readouterr().out == full
+    # the capped C++ search: phi at the cap bounds phi_J, its cut last stage is left out, its late stage unjammed
+    assert "| ≥ 0.66010 | final_rate / capped |" in full and "| 0/1 / 1/1 |" in full
+    assert "late stages (gamma <= 0.00032): 1 of 1 unjam" in full
