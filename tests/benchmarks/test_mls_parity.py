@@ -225,3 +225,22 @@ def test_compact_records_summarize_like_the_full_ones(tmp_path, capsys):
     # the capped C++ search: phi at the cap bounds phi_J, its cut last stage is left out, its late stage unjammed
     assert "| ≥ 0.66010 | final_rate / capped |" in full and "| 0/1 / 1/1 |" in full
     assert "late stages (gamma <= 0.00032): 1 of 1 unjam" in full
+
+
+def test_phi_check_finds_the_contact_scale_over_all_pairs():
+    """The phi check of docs/mls_parity.md §6: the closest pair over all pairs, through the periodic boundary and
+    between unequal spheres, sets the contact scale; a phi from unscaled nominal diameters is flagged."""
+    phi_mod = importlib.import_module("mls_parity_phi")
+    box = 10.0
+    nominal = np.array([1.3, 0.7, 1.0, 1.0])
+    # spheres 0 and 1 (D_01 = 1.0) 0.9 apart through the x boundary; 2 and 3 (D_23 = 1.0) 0.95 apart
+    pos = np.array([[0.2, 5.0, 5.0], [9.3, 5.0, 5.0], [3.0, 2.0, 2.0], [3.0, 2.95, 2.0]])
+    r, i, j = phi_mod.contact_ratio(pos, nominal, box)
+    assert r == pytest.approx(0.9, rel=1e-12) and {i, j} == {0, 1}
+    scale = 0.9 * 1.7  # actual diameters = 1.7 x nominal in other units: only D_i / mean(D) matters
+    d = nominal * scale
+    phi_true = float(np.sum(np.pi / 6 * (0.9 * nominal) ** 3) / box**3)
+    ok = phi_mod.phi_check(pos, d, box, phi_true)
+    assert abs(ok["relative_difference"]) < 1e-12
+    bad = phi_mod.phi_check(pos, d, box, float(np.sum(np.pi / 6 * nominal**3) / box**3))
+    assert bad["relative_difference"] == pytest.approx(1 / 0.9**3 - 1, rel=1e-9)
