@@ -29,6 +29,7 @@ This file is the command line and the loop over pairs; its parts are in ``benchm
     nice -n 15 python benchmarks/mls_parity.py --out /tmp/parity --exe <PackingGeneration.exe> \\
         --n 500 --sigma 0 --pairs 10 --ours-max-collisions-per-particle 1e6
     python benchmarks/mls_parity.py --out /tmp/parity --summarize
+    python benchmarks/mls_parity.py --out /tmp/parity --export-records benchmarks/records/parity  # compact copies
     python benchmarks/mls_parity.py --out /tmp/parity --exe <exe> --start <initial.h5> --initial-rate 10 --seeds 1 2
 """
 
@@ -52,6 +53,7 @@ from parity.cpp import collect_cpp, nominal_density, run_cpp, write_cpp_input
 from parity.locks import claim
 from parity.ours import classify, make_start, run_ours, warm_up
 from parity.report import summarize
+from parity.stages import compact
 
 
 def _done(path: Path, cap: int) -> bool:
@@ -69,10 +71,21 @@ def _write_json(path: Path, data: dict) -> None:
         tmp.write_text(json.dumps(data))
 
 
+def export_records(out: Path, dest: Path) -> None:
+    """Compact copies of every finished search in ``out`` (docs/mls_parity.md: the committed records)."""
+    for path in sorted(out.glob("*/pair-*/*.json")):
+        target = dest / path.relative_to(out)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        _write_json(target, compact(json.loads(path.read_text())))
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True, help="scratch folder (one sub-folder per cell)")
     ap.add_argument("--summarize", action="store_true", help="print the table of every cell in --out and exit")
+    ap.add_argument("--export-records", type=Path, metavar="DIR",
+                    help="write a compact copy (stages instead of the per-window history) of every result in --out "
+                         "to DIR/<cell>/<pair>/<code>.json and exit; --summarize reads such a folder too")
     ap.add_argument("--exe", help="the C++ PackingGeneration binary")
     ap.add_argument("--n", type=int, default=500)
     ap.add_argument("--sigma", type=float, default=0.0)
@@ -93,6 +106,9 @@ def main(argv=None) -> None:
                     help="our stall rule: 'default' (the production value), 'none' (off) or an integer")
     ap.add_argument("--codes", nargs="*", choices=("ours", "cpp"), default=["ours", "cpp"])
     args = ap.parse_args(argv)
+    if args.export_records:
+        export_records(args.out, args.export_records)
+        return
     if args.summarize:
         summarize(args.out)
         return

@@ -22,8 +22,9 @@ def make_start(n: int, sigma: float, seed: int, kind: str, rate: float):
 
 
 def run_ours(start, seed: int, initial_rate: float, factor: float, final_rate: float, max_collisions: int,
-             **options) -> dict:
-    """Our search; ``options`` go to :func:`find_closest_jamming` (e.g. ``stall_windows``)."""
+             return_packing: bool = False, **options):
+    """Our search; ``options`` go to :func:`find_closest_jamming` (e.g. ``stall_windows``). With ``return_packing``,
+    ``(result, final packing)``."""
     cpu0, wall0 = time.process_time(), time.perf_counter()
     r = find_closest_jamming(start, initial_rate=initial_rate, decrease_factor=factor, final_rate=final_rate,
                              p_max=P_MAX, max_equilibration_windows=MAX_EQUILIBRATION_WINDOWS, seed=seed,
@@ -35,7 +36,8 @@ def run_ours(start, seed: int, initial_rate: float, factor: float, final_rate: f
     stop = stop_reason(cols["rate"], cols["pressure"], final_rate)
     res = {"code": "ours", "phi_J": float(r.packing.phi), "stop": stop, "cpu_s": cpu, "wall_s": wall,
            "collisions": collisions, "windows": len(cols["phi"]), "history": cols}
-    return classify(res, max_collisions)
+    res = classify(res, max_collisions)
+    return (res, r.packing) if return_packing else res
 
 
 def classify(res: dict, max_collisions: int) -> dict:

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from .ours import classify
-from .significance import MIN_PAIRS_FOR_TEST, censored_phi_sign_test, censored_sign_test, fisher_line, tests
-from .stages import LATE_RATE, UNJAM_PRESSURE, stage_figures
+from .significance import (MIN_PAIRS_FOR_TEST, censored_phi_sign_test, censored_sign_test, fisher_line,
+                           paired_difference, tests)
+from .stages import LATE_RATE, UNJAM_PRESSURE, phi_end, stage_figures, stage_list
 
 def _fmt(values, digits=4) -> str:
     v = np.asarray([x for x in values if x is not None], dtype=float)
@@ -37,8 +38,8 @@ def _phi_cell(r: dict | None) -> str:
         return "–"
     if r["phi_J"] is not None:
         return f"{r['phi_J']:.5f}"
-    phi = (r.get("history") or {}).get("phi")
-    return f"≥ {phi[-1]:.5f}" if phi else "–"
+    phi = phi_end(r)
+    return "–" if phi is None else f"≥ {phi:.5f}"
 
 
 def summarize(out: Path) -> None:
@@ -74,7 +75,7 @@ def summarize(out: Path) -> None:
                 return "–" if r is None or r.get(k) is None else f.format(r[k])
 
             def uj(r):
-                if r is None or not r.get("history", {}).get("rate"):
+                if r is None or not stage_list(r):
                     return "–"
                 return f"{r['stage']['unjammed']}/{r['stage']['recompressions']}"
             phi0 = (o or c or {}).get("phi_start")
@@ -94,7 +95,7 @@ def summarize(out: Path) -> None:
             capped = sum(r["capped"] for r in rs)
             # stage figures from every search with a history, capped ones too (without their cut stage): the
             # capped searches are the ones with the long stages
-            traced = [r for r in rs if r.get("history", {}).get("rate")]
+            traced = [r for r in rs if stage_list(r)]
             comp = [w for r in traced for w in r["stage"]["compression_windows"]]
             unj = sum(r["stage"]["unjammed"] for r in traced)
             rec = sum(r["stage"]["recompressions"] for r in traced)
@@ -120,6 +121,8 @@ def summarize(out: Path) -> None:
         started = [(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res]
         print("- phi_J with capped searches bounded below by phi at the cap: " + censored_phi_sign_test(started))
         print(f"- phi_J test: {tests([o['phi_J'] for o, _ in complete], [c['phi_J'] for _, c in complete])}")
+        print("- phi_J paired difference: "
+              + paired_difference([o["phi_J"] for o, _ in complete], [c["phi_J"] for _, c in complete]))
         # cost per collision does not need a finished search
         both = [(res["ours"], res["cpp"]) for _, res in pairs if "ours" in res and "cpp" in res
                 and res["ours"].get("collisions") and res["cpp"].get("collisions")]

@@ -24,9 +24,30 @@ def stages(history: dict[str, list]) -> list[dict]:
     return out
 
 
+def stage_list(result: dict) -> list[dict]:
+    """The stages of a search: cut from its per-window history, or as stored in a compact record (:func:`compact`)."""
+    if (result.get("history") or {}).get("rate"):
+        return stages(result["history"])
+    return result.get("stages") or []
+
+
+def phi_end(result: dict) -> float | None:
+    """phi at the last window (for a capped search a lower bound of its phi_J)."""
+    phi = (result.get("history") or {}).get("phi")
+    return phi[-1] if phi else result.get("phi_end")
+
+
+def compact(result: dict) -> dict:
+    """A result without its per-window history, with its stages and last phi instead: what the summary needs, in a
+    few kB (the records committed under benchmarks/records/parity/)."""
+    out = {k: v for k, v in result.items() if k not in ("history", "stage")}
+    out["stages"], out["phi_end"] = stage_list(result), phi_end(result)
+    return out
+
+
 def stage_figures(result: dict) -> dict:
     """Windows per compression stage (by rate), unjammed fraction of the re-compressions, stalls."""
-    st = stages(result.get("history") or {})
+    st = stage_list(result)
     if result.get("capped"):
         st = st[:-1]  # the stage the cap cut is unfinished
     comp = [s for s in st if s["rate"] > 0]

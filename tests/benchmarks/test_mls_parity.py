@@ -147,3 +147,100 @@ def test_a_pair_is_claimed_by_one_live_worker(tmp_path):
     lock.write_text("999999999")  # a worker that died
     assert locks.claim(lock)
     assert lock.read_text() == str(os.getpid())
+
+
+def test_power_of_the_paired_t_test():
+    # textbook value: one-sample/paired t, effect size 0.5, n = 20, two-sided alpha = 0.05 -> power 0.5645
+    assert significance.paired_t_power(20, 1.0, 0.5) == pytest.approx(0.5645, abs=5e-4)
+    assert significance.paired_t_power(12, 0.003, 0.0) == pytest.approx(0.05, abs=1e-9)  # no effect: the level
+    # against simulation: the rejection rate of the t-test on normal differences with mean delta
+    from scipy import stats
+
+    n, sd, delta = 8, 0.002, 0.0015
+    d = np.random.default_rng(4).normal(delta, sd, size=(20000, n))
+    simulated = float(np.mean(stats.ttest_1samp(d, 0.0, axis=1).pvalue < 0.05))
+    assert significance.paired_t_power(n, sd, delta) == pytest.approx(simulated, abs=0.015)
+    # the detectable difference is where the power reaches 80 %, and it shrinks like 1/sqrt(n)
+    m = significance.detectable_difference(20, 0.0036)
+    assert significance.paired_t_power(20, 0.0036, m) == pytest.approx(0.8, abs=1e-6)
+    assert significance.detectable_difference(80, 0.0036) == pytest.approx(m / 2, rel=0.05)
+
+
+def _record(code, phi_j, cpu, collisions=1e8):
+    return {"code": code, "phi_J": phi_j, "stop": "final_rate", "capped": False, "cpu_s": cpu,
+            "collisions": collisions, "windows": 3, "max_collisions": 10**9, "phi_start": 0.62,
+            "history": {"rate": [10.0, 0.0, 5.0], "pressure": [2e12, 5e11, 2e12], "phi": [0.64, 0.64, phi_j]}}
+
+
+def _write_cell(folder, diffs, rng):
+    for k, d in enumerate(diffs, start=1):
+        pair = folder / f"pair-{k:04d}"
+        pair.mkdir(parents=True)
+        phi = 0.66 + 0.003 * rng.standard_normal()
+        (pair / "ours.json").write_text(json.dumps(_record("ours", phi + d, 50.0)))
+        (pair / "cpp.json").write_text(json.dumps(_record("cpp", phi, 300.0, 1.2e8)))
+
+
+def test_summary_gives_paired_difference_interval_and_power(tmp_path, capsys):
+    """Synthetic records with a known shift: the summary's interval is the t-interval of the differences, and too few
+    pairs print "not estimable"."""
+    from scipy import stats
+
+    report = importlib.import_module("parity.report")
+    rng = np.random.default_rng(7)
+    diffs = 0.002 + 0.001 * rng.standard_normal(12)
+    _write_cell(tmp_path / "out" / "N500-sigma0.3-ls0.5", diffs, rng)
+    _write_cell(tmp_path / "out" / "N1000-sigma0.3-ls0.5", diffs[:4], rng)
+    report.summarize(tmp_path / "out")
+    text = capsys.readouterr().out
+    big, small = text.split("## N500")[1], text.split("## N500")[0]
+    line = next(x for x in big.splitlines() if x.startswith("- phi_J paired difference"))
+    half = stats.t.ppf(0.975, 11) * diffs.std(ddof=1) / np.sqrt(12)
+    assert f"ours - C++ = {diffs.mean():+.5f}" in line
+    assert f"95 % CI [{diffs.mean() - half:+.5f}, {diffs.mean() + half:+.5f}]" in line
+    assert f"Wilcoxon signed-rank p = {stats.wilcoxon(diffs).pvalue:.3g}" in line
+    power = significance.paired_t_power(12, diffs.std(ddof=1), 1e-3)
+    assert f"power to detect |diff| = 0.001: {power:.2f}" in line and 0.0 < power < 1.0
+    assert "- speed ratio per search, C++ CPU / our CPU: median 6" in big
+    assert "- phi_J paired difference: not estimable (n = 4" in small
+
+
+def test_compact_records_summarize_like_the_full_ones(tmp_path, capsys):
+    """The committed records drop the per-window history; the summary from them is the same, capped searches too."""
+    report = importlib.import_module("parity.report")
+    rng = np.random.default_rng(3)
+    out = tmp_path / "out" / "N500-sigma0.3-ls0.5"
+    _write_cell(out, 0.001 * rng.standard_normal(6), rng)
+    late = {"rate": [10.0, 0.0, 1.5e-4, 0.0, 7.6e-5], "pressure": [2e12, 5e11, 1e5, 5e11, 2e12],
+            "phi": [0.64, 0.64, 0.65, 0.65, 0.6601]}
+    capped = dict(_record("cpp", None, 900.0), capped=True, stop="capped", history=late)
+    (out / "pair-0002" / "cpp.json").write_text(json.dumps(capped))
+    report.summarize(tmp_path / "out")
+    full = capsys.readouterr().out
+    mp.main(["--out", str(tmp_path / "out"), "--export-records", str(tmp_path / "rec")])
+    rec = json.loads((tmp_path / "rec" / out.name / "pair-0002" / "cpp.json").read_text())
+    assert "history" not in rec and rec["phi_end"] == 0.6601 and len(rec["stages"]) == 5
+    report.summarize(tmp_path / "rec")
+    assert capsys.readouterr().out == full
+    # the capped C++ search: phi at the cap bounds phi_J, its cut last stage is left out, its late stage unjammed
+    assert "| ≥ 0.66010 | final_rate / capped |" in full and "| 0/1 / 1/1 |" in full
+    assert "late stages (gamma <= 0.00032): 1 of 1 unjam" in full
+
+
+def test_phi_check_finds_the_contact_scale_over_all_pairs():
+    """The phi check of docs/mls_parity.md §6: the closest pair over all pairs, through the periodic boundary and
+    between unequal spheres, sets the contact scale; a phi from unscaled nominal diameters is flagged."""
+    phi_mod = importlib.import_module("mls_parity_phi")
+    box = 10.0
+    nominal = np.array([1.3, 0.7, 1.0, 1.0])
+    # spheres 0 and 1 (D_01 = 1.0) 0.9 apart through the x boundary; 2 and 3 (D_23 = 1.0) 0.95 apart
+    pos = np.array([[0.2, 5.0, 5.0], [9.3, 5.0, 5.0], [3.0, 2.0, 2.0], [3.0, 2.95, 2.0]])
+    r, i, j = phi_mod.contact_ratio(pos, nominal, box)
+    assert r == pytest.approx(0.9, rel=1e-12) and {i, j} == {0, 1}
+    scale = 0.9 * 1.7  # actual diameters = 1.7 x nominal in other units: only D_i / mean(D) matters
+    d = nominal * scale
+    phi_true = float(np.sum(np.pi / 6 * (0.9 * nominal) ** 3) / box**3)
+    ok = phi_mod.phi_check(pos, d, box, phi_true)
+    assert abs(ok["relative_difference"]) < 1e-12
+    bad = phi_mod.phi_check(pos, d, box, float(np.sum(np.pi / 6 * nominal**3) / box**3))
+    assert bad["relative_difference"] == pytest.approx(1 / 0.9**3 - 1, rel=1e-9)
