@@ -30,7 +30,7 @@ def _b64(array: np.ndarray, dtype: str) -> str:
 
 
 def view_data(packing, title: str) -> dict:
-    """The page's JSON: N, L, phi, the title and the per-sphere arrays (base64)."""
+    """The page's JSON: N, the frame's edges and the container, phi, the title and the per-sphere arrays (base64)."""
     from ..analysis.contacts import analyze_contacts
 
     if packing.dim != 3:
@@ -38,7 +38,10 @@ def view_data(packing, title: str) -> dict:
     contacts = analyze_contacts(packing)
     return {
         "n": packing.n,
-        "box": float(packing.box),
+        "lengths": [float(x) for x in packing.container.lengths],
+        "container": None if packing.container.is_periodic_cube else {
+            "spec": packing.container.spec, "curved": packing.container.curved,
+            "radius": float(packing.container.radius), "axis": int(packing.container.axis)},
         "phi": float(packing.phi),
         "title": title,
         "contact_tolerance": float(contacts.coordination.contact_tolerance),
