@@ -43,7 +43,7 @@ def test_page_is_self_contained_small_and_holds_the_packing(page):
     assert not re.search(r"""(src|href)\s*=|https?://|@import|fetch\(|XMLHttpRequest""", text, re.I)
     data = page_data(text)
     packing = read_packing(PACKING)
-    assert data["n"] == packing.n == 1000 and data["box"] == packing.box
+    assert data["n"] == packing.n == 1000 and data["lengths"] == [packing.box] * 3 and data["container"] is None
     np.testing.assert_array_equal(decode(data["positions"], "<f4").reshape(-1, 3), packing.positions.astype("<f4"))
     np.testing.assert_array_equal(decode(data["diameters"], "<f4"), packing.diameters.astype("<f4"))
     contacts = analyze_contacts(packing)
@@ -96,3 +96,18 @@ def test_page_draws_the_spheres_in_headless_chromium(page, tmp_path):
     assert 0.1 < 1 - background.mean() < 0.95  # spheres cover part of the view, not none and not all
     red = (img[..., 0] > 0.6) & (img[..., 1] < 0.4) & (img[..., 2] < 0.4)
     assert red.sum() > 100  # coloured by rattler, as the address asked: some rattlers are drawn red
+
+
+def test_a_container_packing_gives_its_frame_and_wall(tmp_path):
+    """A column's page holds its frame's edges and its cylinder (drawn as circles at both ends)."""
+    import json
+
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.workflow.packing_view import view_data
+
+    p = poisson_packing(300, sigma=0.3, seed=1, container="cylinder:diameter=6,capped=yes")
+    data = view_data(p, "column")
+    assert data["lengths"] == list(p.container.lengths)
+    assert data["container"] == {"spec": p.container.spec, "curved": "cylinder", "radius": p.container.radius,
+                                 "axis": 2}
+    json.dumps(data, allow_nan=False)  # nothing the page's JSON.parse would choke on (a NaN box did)
