@@ -414,27 +414,16 @@ def wall_event(xi, yi, zi, vxi, vyi, vzi, r, a, lengths, walls):
     prediction stays as small as it was."""
     best = _INF
     wall = -1
-    if walls[0] != 0.0:
-        tau = plane_delay(xi - r, vxi - a)
-        if tau < best:
-            best, wall = tau, 0
-        tau = plane_delay(lengths[0] - xi - r, -vxi - a)
-        if tau < best:
-            best, wall = tau, 1
-    if walls[1] != 0.0:
-        tau = plane_delay(yi - r, vyi - a)
-        if tau < best:
-            best, wall = tau, 2
-        tau = plane_delay(lengths[1] - yi - r, -vyi - a)
-        if tau < best:
-            best, wall = tau, 3
-    if walls[2] != 0.0:
-        tau = plane_delay(zi - r, vzi - a)
-        if tau < best:
-            best, wall = tau, 4
-        tau = plane_delay(lengths[2] - zi - r, -vzi - a)
-        if tau < best:
-            best, wall = tau, 5
+    for k in range(3):
+        if walls[k] != 0.0:
+            x = xi if k == 0 else (yi if k == 1 else zi)
+            v = vxi if k == 0 else (vyi if k == 1 else vzi)
+            tau = plane_delay(x - r, v - a)
+            if tau < best:
+                best, wall = tau, 2 * k
+            tau = plane_delay(lengths[k] - x - r, -v - a)
+            if tau < best:
+                best, wall = tau, 2 * k + 1
     kind = walls[3]
     if kind != 0.0:
         px = xi - walls[5]
@@ -957,7 +946,8 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 return OVERFLOW, t
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
+                     rho0, gamma, skin, rho_list, multi, True)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -1007,9 +997,11 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
             _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
+                     rho0, gamma, skin, rho_list, multi, True)
             _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
+                     rho0, gamma, skin, rho_list, multi, True)
         elif kind == WALL:
             t = te
             _sync(st, i, t)
@@ -1029,11 +1021,13 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
             else:
                 counters[C_NULL] += 1
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
+                     rho0, gamma, skin, rho_list, multi, True)
         else:
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, True)
+                     nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
+                     rho0, gamma, skin, rho_list, multi, True)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
