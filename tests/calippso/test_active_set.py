@@ -245,8 +245,9 @@ def test_lps_after_a_bound_held_lp_are_shortcuts_with_the_same_certificate(ls_ja
 def test_an_active_set_solve_too_slow_for_its_pivots_is_given_up_early(monkeypatch, ls_fast_256):
     """The third LP of a creeping N = 256 input, predicted from the second: ~110 pivots certify it within the budget
     of 500 (110 or 112 on two machines: the count follows the floating point of the solves before it). With a
-    budget of 40 and the pace checked every 20 pivots instead of PROGRESS_EVERY, its negative duals have risen after the first 20 (duals move together) and outnumber the 20 pivots left, so the solve gives up
-    then instead of after 40 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md
+    budget of 40 and the pace checked every 20 pivots instead of PROGRESS_EVERY, its negative duals have risen
+    after the first 20 (duals move together) and outnumber the 20 pivots left, so the solve gives up then instead
+    of after 40 -- the fallback to HiGHS that spares N = 10^4 minutes of pivots (docs/calippso.md
     §5.4). With 480 pivots left the same count and pace are no reason to give up."""
     active_set, args, kwargs = _third_lp_attempt(monkeypatch, ls_fast_256)
     sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
