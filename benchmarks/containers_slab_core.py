@@ -90,6 +90,7 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=2200, help="N of both the slab and the periodic cube")
     ap.add_argument("--height", type=float, default=30.0, help="slab height in mean diameters (>= 30 for the issue)")
     ap.add_argument("--psd", default="mono", choices=list(DISTRIBUTIONS))
+    ap.add_argument("--table-only", action="store_true", help="summarise the records present; run nothing")
     ap.add_argument("--protocols", nargs="+", default=list(PROTOCOLS), choices=list(PROTOCOLS))
     args = ap.parse_args(argv)
     store = Records(args.out)
@@ -100,6 +101,8 @@ def main(argv=None) -> int:
             for kind in ("slab", "periodic"):
                 k = f"{kind}_{protocol}_{args.psd}_N{args.n}_H{args.height:g}_s{seed}"
                 rec = store.get(k)
+                if rec is None and args.table_only:
+                    continue
                 if rec is None:
                     rec = run(kind, protocol, args.psd, args.n, args.height, seed)
                     store.put(k, rec)

@@ -13,8 +13,8 @@ constant rate until the mean reduced pressure PV/(NkT) exceeds 1e12 (ours: LS wi
 For each seed the two codes run one after the other in this process (order alternating by seed), each timed by
 its own CPU time (time.process_time: the machine is shared). Printed per container: phi (mean, 95 % t-interval over
 seeds) of each code and their difference, the achieved D/<d> (or H/<d>), collisions per CPU second of each code
-(spheropack's own count: ``Packing.n_collisions``, sphere-sphere and sphere-wall collisions; ours: the engine's
-collision count, sphere-sphere and sphere-wall) and their ratio, the CPU time to jam and its ratio.
+(spheropack's own count ``Packing.n_collisions``, which includes sphere-wall collisions; ours: the engine's pair
+collisions plus its wall collisions, summed over the windows) and their ratio, the CPU time to jam and its ratio.
 
 Needs spheropack in the running interpreter (a venv under /tmp, never a dependency of spherejam):
 
@@ -43,13 +43,21 @@ CONTAINERS = {"cylinder": "cylinder:diameter=7", "slab": "slab:height=10"}
 
 def ours(spec: str, seed: int, rate: float) -> dict:
     start = poisson_packing(N, seed=seed, container=spec, phi_nominal=PHI_NOMINAL)
+    walls = [0]
+
+    def count_walls(_, stats):
+        walls[0] += stats.wall_collisions
+
     cpu0 = time.process_time()
-    r = run_ls(start, rate, seed=seed, progress_interval=1e9)
+    r = run_ls(start, rate, seed=seed, progress_interval=1e9, callback=count_walls)
     cpu = time.process_time() - cpu0
     q = r.packing
     check = brute_force(q.positions, q.diameters, q.container)
     temps = np.asarray(r.history["temperature"], dtype=float)
-    return {"phi": q.phi, "collisions": int(r.stats.collisions), "cpu": cpu, "stop": r.stats.stop_reason,
+    # spheropack's n_collisions counts sphere-wall collisions too (two spheres in a closed box collide thousands of
+    # times, in a periodic one tens), so ours are counted alike: the engine's pair collisions plus its wall ones
+    return {"phi": q.phi, "collisions": int(r.stats.collisions) + walls[0], "pair_collisions": int(r.stats.collisions),
+            "wall_collisions": walls[0], "cpu": cpu, "stop": r.stats.stop_reason,
             "reduced_pressure": q.metadata.get("reduced_pressure"), "achieved": q.container.in_diameters(q.mean_diameter),
             "window_temperature_median": float(np.median(temps)), **check}
 
@@ -86,6 +94,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="folder of the per-run JSON records (resumable)")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--rate", type=float, default=0.1, help="our LS gamma (spheropack: gamma / sqrt(0.2))")
+    ap.add_argument("--table-only", action="store_true", help="summarise the records present; run nothing")
     ap.add_argument("--containers", nargs="+", default=list(CONTAINERS), choices=list(CONTAINERS))
     args = ap.parse_args(argv)
     try:
@@ -108,6 +117,8 @@ def main(argv=None) -> int:
             for code in order:
                 k = f"{name}_{code}_g{args.rate:g}_s{seed}"
                 rec = store.get(k)
+                if rec is None and args.table_only:
+                    continue
                 if rec is None:
                     rec = (ours(spec, seed, args.rate) if code == "ours" else theirs(spec, seed, big_gamma))
                     rec.update(code=code, container=spec, seed=seed, rate=args.rate, big_gamma=big_gamma,
@@ -117,6 +128,11 @@ def main(argv=None) -> int:
                           f"overlap={rec['worst_overlap']:.2e} penetration={rec['worst_penetration']:.2e} "
                           f"stop={rec['stop']} load={rec['load']:.1f}", flush=True)
                 rows[code].append(rec)
+        both = {r["seed"] for r in rows["ours"]} & {r["seed"] for r in rows["spheropack"]}
+        rows = {code: sorted((r for r in rr if r["seed"] in both), key=lambda r: r["seed"]) for code, rr in rows.items()}
+        if not both:
+            print(f"\n{name}: no seed with both codes yet")
+            continue
         print(f"\n{name} (`{spec}`, N = {N}, nominal phi {PHI_NOMINAL}):")
         for code, rr in rows.items():
             ach = {k: np.mean([r["achieved"][k] for r in rr]) for k in rr[0]["achieved"]}
