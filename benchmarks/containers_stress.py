@@ -13,11 +13,13 @@ Prints the table (shape x distribution x N x protocol: worst overlap, worst pene
     python benchmarks/containers_stress.py --out runs/stress --n 20 500
     python benchmarks/containers_stress.py --out runs/stress --n 5000 --protocols ls
     python benchmarks/containers_stress.py --out runs/stress --table-only      # print what is there
+    python benchmarks/containers_stress.py --out runs/stress --narrow          # the NARROW containers (minutes)
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 import traceback
@@ -52,6 +54,56 @@ def run_case(shape: str, dist: str, n: int, protocol: str, seed: int, max_wall: 
     return record
 
 
+#: Narrow containers (``--narrow``): single file, two abreast, few spheres against curved walls, a monolayer-thin slab,
+#: wide size ratios against walls; specs whose largest sampled sphere does not fit are refused up front.
+NARROW = [("cylinder:diameter=1.2", 20, "lognormal:sigma=0"), ("cylinder:diameter=1.5", 30, "lognormal:sigma=0.3"),
+          ("cylinder:diameter=2.2,capped=yes", 30, "lognormal:sigma=0"), ("sphere:diameter=2.5", None, "lognormal:sigma=0"),
+          ("box:x=1.3,y=1.3", 20, "lognormal:sigma=0"), ("slab:height=1.3", 50, "lognormal:sigma=0.3"),
+          ("cylinder:diameter=5", 200, "bidisperse:ratio=4,small=0.5,by=number"),
+          ("sphere:diameter=6", None, "bidisperse:ratio=4,small=0.5,by=number"),
+          ("cylinder:diameter=2.0", 40, "lognormal:sigma=0"), ("slab:height=2.0", 60, "lognormal:sigma=0")]
+
+
+def narrow(seeds: int = 3) -> int:
+    """LS at gamma = 10 and 1e-2 and MLS in each NARROW container, ``seeds`` seeds; prints one line per run and the
+    worst overlap and penetration; returns the number of failed runs."""
+    from spherejam.core.seeding import poisson_packing
+    from spherejam.engines.closest_jamming import find_closest_jamming
+    from spherejam.engines.lubachevsky_stillinger import run_ls
+
+    runs = {"ls10": lambda p, s: run_ls(p, 10.0, seed=s, progress_interval=1e9, max_wall_time=600),
+            "ls0.01": lambda p, s: run_ls(p, 0.01, seed=s, progress_interval=1e9, max_wall_time=600),
+            "mls": lambda p, s: find_closest_jamming(p, initial_rate=10, final_rate=1e-2, seed=s, progress_interval=1e9,
+                                                     max_wall_time=600)}
+    worst, failed, done = [-math.inf, -math.inf], 0, 0
+    for spec, n, psd in NARROW:
+        for seed in range(1, seeds + 1):
+            try:
+                start = poisson_packing(n, psd=psd, container=spec, seed=seed)
+            except InputError as exc:
+                print(f"refused {spec} n={n} {psd} seed={seed}: {exc}")
+                continue
+            for name, run in runs.items():
+                try:
+                    r = run(start, seed)
+                except Exception as exc:  # noqa: BLE001 - a crash is a finding
+                    failed += 1
+                    print(f"ERROR {spec} n={n} {psd} seed={seed} {name}: {type(exc).__name__}: {exc}", flush=True)
+                    continue
+                q = r.packing
+                c = brute_force(q.positions, q.diameters, q.container)
+                worst = [max(worst[0], c["worst_overlap"]), max(worst[1], c["worst_penetration"])]
+                bad = max(c["worst_overlap"], c["worst_penetration"]) > LIMIT
+                failed += bad
+                done += 1
+                print(f"{'FAIL' if bad else 'ok'} {spec} n={q.n} {psd} seed={seed} {name}: phi={q.phi:.4f} "
+                      f"stop={r.stats.stop_reason} overlap={c['worst_overlap']:.1e} "
+                      f"penetration={c['worst_penetration']:.1e}", flush=True)
+    print(f"narrow containers: {done} runs, {failed} failed; worst overlap {worst[0]:.2e}, worst penetration "
+          f"{worst[1]:.2e} (limit {LIMIT:g})")
+    return failed
+
+
 def key(shape, dist, n, protocol, seed) -> str:
     return f"{shape}_{dist}_N{n}_{protocol}_s{seed}"
 
@@ -83,7 +135,10 @@ def main(argv=None) -> int:
     ap.add_argument("--max-wall", type=float, default=None, help="wall-time budget of one run (s); its output is "
                     "checked all the same (stop reason max_wall_time)")
     ap.add_argument("--table-only", action="store_true", help="print the table of the records present; run nothing")
+    ap.add_argument("--narrow", action="store_true", help="run the NARROW containers instead of the matrix")
     args = ap.parse_args(argv)
+    if args.narrow:
+        return 1 if narrow() else 0
     store = Records(args.out)
     done = []
     for n in args.n:
