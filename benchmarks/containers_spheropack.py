@@ -58,7 +58,8 @@ def ours(spec: str, seed: int, rate: float) -> dict:
     # times, in a periodic one tens), so ours are counted alike: the engine's pair collisions plus its wall ones
     return {"phi": q.phi, "collisions": int(r.stats.collisions) + walls[0], "pair_collisions": int(r.stats.collisions),
             "wall_collisions": walls[0], "cpu": cpu, "stop": r.stats.stop_reason,
-            "reduced_pressure": q.metadata.get("reduced_pressure"), "achieved": q.container.in_diameters(q.mean_diameter),
+            "reduced_pressure": q.metadata.get("reduced_pressure"),
+            "achieved": q.container.in_diameters(q.mean_diameter),
             "window_temperature_median": float(np.median(temps)), **check}
 
 
@@ -129,7 +130,8 @@ def main(argv=None) -> int:
                           f"stop={rec['stop']} load={rec['load']:.1f}", flush=True)
                 rows[code].append(rec)
         both = {r["seed"] for r in rows["ours"]} & {r["seed"] for r in rows["spheropack"]}
-        rows = {code: sorted((r for r in rr if r["seed"] in both), key=lambda r: r["seed"]) for code, rr in rows.items()}
+        rows = {code: sorted((r for r in rr if r["seed"] in both), key=lambda r: r["seed"])
+                for code, rr in rows.items()}
         if not both:
             print(f"\n{name}: no seed with both codes yet")
             continue

@@ -1,4 +1,4 @@
-"""The containers' stress matrix (issue 45, acceptance "no overlap, no wall penetration"; docs/containers_acceptance.md).
+"""The containers' stress matrix (issue 45, acceptance "no overlap, no wall penetration"; docs/containers_acceptance).
 
 Every shape (slab, closed box, periodic cylinder, capped cylinder, sphere, non-cubic periodic box) x size distribution
 (monodisperse, log-normal sigma = 0.3, bidisperse 1:4) x N (20, 500, 5000) x protocol (the table PROTOCOLS of
@@ -57,7 +57,8 @@ def run_case(shape: str, dist: str, n: int, protocol: str, seed: int, max_wall: 
 #: Narrow containers (``--narrow``): single file, two abreast, few spheres against curved walls, a monolayer-thin slab,
 #: wide size ratios against walls; specs whose largest sampled sphere does not fit are refused up front.
 NARROW = [("cylinder:diameter=1.2", 20, "lognormal:sigma=0"), ("cylinder:diameter=1.5", 30, "lognormal:sigma=0.3"),
-          ("cylinder:diameter=2.2,capped=yes", 30, "lognormal:sigma=0"), ("sphere:diameter=2.5", None, "lognormal:sigma=0"),
+          ("cylinder:diameter=2.2,capped=yes", 30, "lognormal:sigma=0"),
+          ("sphere:diameter=2.5", None, "lognormal:sigma=0"),
           ("box:x=1.3,y=1.3", 20, "lognormal:sigma=0"), ("slab:height=1.3", 50, "lognormal:sigma=0.3"),
           ("cylinder:diameter=5", 200, "bidisperse:ratio=4,small=0.5,by=number"),
           ("sphere:diameter=6", None, "bidisperse:ratio=4,small=0.5,by=number"),
