@@ -181,6 +181,19 @@ def mean_ci(values, level: float = 0.95) -> tuple[float, float | None]:
     return float(v.mean()), float(t.ppf(0.5 + level / 2, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v)))
 
 
+def welch(x, y, level: float = 0.95) -> tuple[float, float | None]:
+    """mean(x) - mean(y) and the half-width of its Welch interval; None when either has n < 2."""
+    from scipy.stats import t
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if len(x) < 2 or len(y) < 2:
+        return float(x.mean() - y.mean()), None
+    vx, vy = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    se = math.sqrt(vx + vy)
+    dof = (vx + vy) ** 2 / (vx**2 / (len(x) - 1) + vy**2 / (len(y) - 1)) if se > 0 else len(x) + len(y) - 2
+    return float(x.mean() - y.mean()), float(t.ppf(0.5 + level / 2, dof) * se)
+
+
 def fmt_ci(values, digits: int = 4) -> str:
     m, h = mean_ci(values)
     n = len([x for x in values if x is not None])

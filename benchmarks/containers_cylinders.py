@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 from containers_common import DISTRIBUTIONS, PROTOCOLS, Records, brute_force, fmt_ci, mean_ci, provenance, \
-    start_packing
+    start_packing, welch
 
 #: N per asked D/d: enough for a column at least ~8 d long, periodic along its axis.
 CYLINDER_N = {5: 500, 7: 725, 10: 1000, 20: 3000}
@@ -47,12 +47,6 @@ def run(spec: str, n: int, dist: str, protocol: str, seed: int) -> dict:
             "stop": result.stats.stop_reason, "cpu": time.process_time() - cpu0,
             "achieved": q.container.in_diameters(q.mean_diameter),
             **brute_force(q.positions, q.diameters, q.container), **provenance()}
-
-
-def welch(x, y):
-    from containers_slab_core import welch as w
-
-    return w(x, y)
 
 
 def main(argv=None) -> int:

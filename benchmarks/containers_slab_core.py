@@ -28,7 +28,8 @@ import sys
 import time
 
 import numpy as np
-from containers_common import DISTRIBUTIONS, PROTOCOLS, Records, brute_force, fmt_ci, provenance, start_packing
+from containers_common import DISTRIBUTIONS, PROTOCOLS, Records, brute_force, fmt_ci, provenance, start_packing, \
+    welch
 
 MARGIN = 5.0  # core: centres this many mean diameters from both walls
 
@@ -69,18 +70,6 @@ def run(kind: str, protocol: str, dist: str, n: int, height: float, seed: int) -
     if kind == "slab":
         rec.update(core_phi(q))
     return rec
-
-
-def welch(x, y, level=0.95):
-    from scipy.stats import t
-
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 2 or len(y) < 2:
-        return float(x.mean() - y.mean()), None
-    vx, vy = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
-    se = math.sqrt(vx + vy)
-    dof = (vx + vy) ** 2 / (vx**2 / (len(x) - 1) + vy**2 / (len(y) - 1)) if se > 0 else len(x) + len(y) - 2
-    return float(x.mean() - y.mean()), float(t.ppf(0.5 + level / 2, dof) * se)
 
 
 def main(argv=None) -> int:
