@@ -150,3 +150,10 @@ def test_the_isostatic_count_of_each_shape(spec, zero_modes):
     assert c.isostatic_contacts(100) == 3 * 100 - zero_modes + 1
     if spec == "periodic":
         assert c.isostatic_contacts(100) == 3 * (100 - 1) + 1
+
+
+@pytest.mark.parametrize("spec", ["box:x=20,y=20", "cylinder:diameter=20,capped=yes"])
+def test_a_walled_length_left_to_n_that_cannot_hold_a_sphere_is_refused(spec):
+    """20 spheres in a 20 x 20 box leave z = 0.04 diameters: refused up front, not packed as a film."""
+    with pytest.raises(InputError, match="walled length along z"):
+        poisson_packing(20, seed=1, container=spec)

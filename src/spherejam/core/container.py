@@ -420,8 +420,10 @@ def build(spec: str | ContainerSpec | None, n: int | None, nominal: np.ndarray,
             raise InputError(f"container={spec.text!r}: {name}={value!r} mean diameters cannot hold a sphere of "
                              f"{dmax:.3g} mean diameters (the largest of the sample)")
     for k in range(dim):
-        if container.periodic[k] and container.lengths[k] < dmax:
-            raise InputError(f"container={spec.text!r}: its periodic length along {AXES[k]} "
+        walled = container.planes[k]
+        if container.lengths[k] < (1.05 * dmax if walled else dmax) and (walled or container.periodic[k]):
+            kind = "walled" if walled else "periodic"
+            raise InputError(f"container={spec.text!r}: its {kind} length along {AXES[k]} "
                              f"({container.lengths[k]:.3g} mean diameters at N = {len(nominal)}) is below the largest "
-                             f"sphere ({dmax:.3g}); take a larger N")
+                             f"sphere ({dmax:.3g}); take a larger N or give that length")
     return container
