@@ -91,6 +91,10 @@ class Packing:
         if n < 2:
             raise InputError(f"N={n}: a packing needs at least 2 spheres")
         container = self.container
+        if container is not None and container.is_periodic_cube and self.box is not None \
+                and not math.isnan(float(self.box)) and float(self.box) != container.side:
+            raise InputError(f"box={self.box!r}: differs from the side of container {container.spec} "
+                             f"({container.side!r}); give one of them")
         if container is None or container.is_periodic_cube:
             box = float(container.side if container is not None else self.box)
             if not (math.isfinite(box) and box > 0):
@@ -216,8 +220,11 @@ class Packing:
 
     # --- derived packings ---------------------------------------------------------------------------------------
     def replace(self, **changes) -> Packing:
-        """A new packing with some fields replaced (metadata is copied, not shared)."""
+        """A new packing with some fields replaced (metadata is copied, not shared). A new ``box`` without a new
+        ``container`` is the periodic cube of that side."""
         changes.setdefault("metadata", dict(self.metadata))
+        if "box" in changes and "container" not in changes:
+            changes["container"] = None
         return dataclasses.replace(self, **changes)
 
     def scaled_to_contact(self) -> Packing:
