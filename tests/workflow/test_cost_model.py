@@ -181,10 +181,13 @@ def test_module_imports_nothing_heavy():
     # Snakemake evaluates these functions for every job while building the DAG; only the sizing helpers
     # (plan, load_configs) import more, inside the functions.
     from spherejam.core import rate_ladder
+    from spherejam.workflow import pair_load
 
-    allowed = {"__future__", "math", "operator", "os", "dataclasses", "..core.errors", "..core.rate_ladder"}
+    allowed = {"__future__", "math", "operator", "os", "dataclasses", "..core.errors", "..core.rate_ladder",
+               ".pair_load"}
     assert _top_level_imports(cr) <= allowed
     assert _top_level_imports(rate_ladder) <= {"__future__", "math"}
+    assert _top_level_imports(pair_load) <= {"__future__", "math", "..core.errors"}
 
 
 def test_plan_counts_the_workflows_jobs():

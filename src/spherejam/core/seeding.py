@@ -93,18 +93,24 @@ def poisson_packing(
     nominal = distribution.draw(n, rng)
     box = box_for(nominal, phi_nominal, dim)
     positions = rng.random((n, dim)) * box
-    parameters = {"n": int(n)}
+    metadata = _metadata(distribution, nominal, seed, phi_nominal, dim)
+    return Packing(positions, nominal, box, metadata).scaled_to_contact()
+
+
+def _metadata(distribution: SizeDistribution, nominal: np.ndarray, seed: int, phi_nominal: float, dim: int,
+              **extra) -> dict:
+    """A Poisson packing's metadata: its parameters (``extra`` last) and the distribution with the drawn sample's
+    own descriptors (delta, skewness, d_max/d_min, M1..M3, z)."""
+    parameters = {"n": len(nominal)}
     if isinstance(distribution, LogNormal):
         parameters["sigma"] = float(distribution.sigma)
-    parameters.update({"phi_nominal": float(phi_nominal), "dim": int(dim), "psd": distribution.spec})
-    metadata = {
+    parameters.update({"phi_nominal": float(phi_nominal), "dim": int(dim), "psd": distribution.spec, **extra})
+    return {
         "algorithm": "poisson",
         "seed": int(seed),
         "parameters": parameters,
-        # the distribution and the drawn sample's own descriptors (delta, skewness, d_max/d_min, M1..M3, z)
         "size_distribution": {**distribution.provenance(), "sample": sample_descriptors(nominal).as_dict()},
     }
-    return Packing(positions, nominal, box, metadata).scaled_to_contact()
 
 
 def _uniform_inside(container: containers.Container, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -133,15 +139,5 @@ def _poisson_in_container(n, distribution: SizeDistribution, spec: containers.Co
     nominal = distribution.draw(n, rng)
     container = containers.build(spec, n, nominal, phi_estimate, dim)
     positions = _uniform_inside(container, n, rng)
-    parameters = {"n": int(n)}
-    if isinstance(distribution, LogNormal):
-        parameters["sigma"] = float(distribution.sigma)
-    parameters.update({"phi_nominal": float(phi_estimate), "dim": int(dim), "psd": distribution.spec,
-                       "container": container.spec})
-    metadata = {
-        "algorithm": "poisson",
-        "seed": int(seed),
-        "parameters": parameters,
-        "size_distribution": {**distribution.provenance(), "sample": sample_descriptors(nominal).as_dict()},
-    }
+    metadata = _metadata(distribution, nominal, seed, phi_estimate, dim, container=container.spec)
     return Packing(positions, nominal, math.nan, metadata, container).scaled_to_contact()

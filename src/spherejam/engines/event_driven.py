@@ -270,9 +270,9 @@ class LSEngine:
             rho_list = min(rho * (1.0 + margin), self.rho_limit)
             max_skin = MULTI_IMAGE_MAX_SKIN * period  # images one period away suffice (ed.image_collision)
         skin = min(max(opt.skin_fraction * rho_list * dmean, r_dilute - rho_list * dmean), max_skin)
-        _, lvl_ms, _, _ = grid_levels(nominal, rho_list, skin, frame)
-        st, perm = self._sorted_by_cell(lvl_ms[0])
-        level, lvl_ms, lvl_off, lvl_dmax = grid_levels(st[:, 7], rho_list, skin, frame)
+        level, lvl_ms, lvl_off, lvl_dmax = grid_levels(nominal, rho_list, skin, frame)
+        st, perm, order = self._sorted_by_cell(lvl_ms[0])
+        level = level[order]  # each particle keeps its level through the renumbering
         cap = s.nbr.shape[1]
         while True:
             nbr = _aligned_zeros((n, cap), np.int32)
@@ -286,14 +286,15 @@ class LSEngine:
                                 lvl_dmax=lvl_dmax, level=level, rho_list=rho_list, skin=skin, multi=multi,
                                 list_rebuilds=s.list_rebuilds + 1)
 
-    def _sorted_by_cell(self, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(st, perm)`` renumbered in the order of the cells of the grid of ``ms`` cells per axis (the finest
-        level), so that neighbours sit close in memory (all particles synchronised)."""
+    def _sorted_by_cell(self, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(st, perm, order)``: the rows renumbered in the order of the cells of the grid of ``ms`` cells per axis
+        (the finest level), so that neighbours sit close in memory (all particles synchronised); new row k is old
+        row order[k]."""
         s = self.state
         order = cell_sort(np.mod(s.st[:, 0:3], s.lengths), s.lengths, ms)[2]
         if np.any(order != np.arange(self.n)):
-            return _aligned_copy(s.st[order]), s.perm[order]
-        return s.st, s.perm
+            return _aligned_copy(s.st[order]), s.perm[order], order
+        return s.st, s.perm, order
 
     def _enlarge_lists(self) -> None:
         s = self.state

@@ -17,8 +17,9 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
-* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT``
-  seconds each (the per-LP time includes the run's share of its force LP and start-up).
+* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of
+  ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` seconds each (the per-LP time includes the run's share of
+  its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
 
 The LS and MLS size factors count an N below 1000 as 1000.
@@ -39,6 +40,7 @@ from dataclasses import dataclass
 
 from ..core.errors import InputError, require
 from ..core.rate_ladder import ladder_rates
+from .pair_load import LIST_SKIN, pair_load  # noqa: F401 (part of this module's interface)
 
 #: Stages (rule kinds) with a cost model.
 STAGES = ("seed", "ls", "fb", "mls", "calippso", "analyze")
@@ -54,9 +56,6 @@ SPEED_EXPONENT = -0.05
 #: divided by 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load; fitted to the bidisperse rows of
 #: `benchmarks/bench_ls.py counts` and checked on the others (benchmarks/cost_fit.py, docs/algorithms.md §7.5).
 DISTRIBUTION_COEFFICIENT = 0.33
-#: The Verlet skin of the event-driven engine in mean diameters (engines.event_driven.ListOptions.skin_fraction),
-#: part of a neighbour list's radius in pair_load.
-LIST_SKIN = 0.2
 #: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (docs/cluster.md, 'Cost model').
 MLS_PHASE_FRACTION = 0.5
 #: Growth of the MLS collisions per particle with N above 1000: (N / 1000)^MLS_SIZE_EXPONENT.
@@ -119,27 +118,6 @@ def collisions_per_second(n: int) -> float:
     """Expected event-driven (LS/MLS) speed at N particles, collisions per CPU second."""
     n = _check_n(n)
     return COLLISIONS_PER_SECOND * (max(n, 1000) / 1000.0) ** SPEED_EXPONENT
-
-
-def pair_load(diameters) -> float:
-    """W: the mean neighbour-list length of a colliding sphere, relative to equal spheres (1 for equal spheres).
-
-    The event-driven engine re-predicts a sphere's whole Verlet list at each of its collisions, so its work per
-    collision follows the lists of the spheres that collide. A sphere of diameter D (number mean 1) takes part in
-    collisions in proportion to its surface D^2 and lists the centres within (D + 1)/2 + LIST_SKIN, a volume
-    ~ ((D + 1)/2 + LIST_SKIN)^3:
-
-        W = <D^2 ((D + 1)/2 + s)^3> / (<D^2> (1 + s)^3),   s = LIST_SKIN.
-
-    ``diameters`` is a sample of the distribution (any scale; a plain sequence, no numpy needed). At 1:10, 30 % small
-    by volume, W ~ 20; a log-normal sigma = 0.5, ~ 2.2 (docs/algorithms.md §7.5)."""
-    values = [float(d) for d in diameters]
-    require(len(values) > 0 and all(math.isfinite(d) and d > 0 for d in values), "diameters", len(values),
-            "must be a non-empty sequence of finite numbers > 0")
-    mean = math.fsum(values) / len(values)
-    weight = math.fsum((d / mean) ** 2 for d in values)
-    volume = math.fsum((d / mean) ** 2 * (0.5 * (d / mean + 1.0) + LIST_SKIN) ** 3 for d in values)
-    return volume / (weight * (1.0 + LIST_SKIN) ** 3)
 
 
 def distribution_factor(load: float = 1.0) -> float:

@@ -554,13 +554,13 @@ class Experiment:
 
     def pair_load(self, key: str, n: int) -> float:
         """The cost model's pair load W of distribution ``key`` at N spheres
-        (:func:`spherejam.workflow.cost_model.pair_load`), from one draw of N diameters (seed 0: the expected sample
+        (:func:`spherejam.workflow.pair_load.pair_load`), from one draw of N diameters (seed 0: the expected sample
         at that N; a packing's own draw differs by its seed). Computed once per (key, N)."""
         cache = self._pair_loads
         if (key, n) not in cache:
             import numpy as np
 
-            from .cost_model import pair_load
+            from .pair_load import pair_load
 
             model = self.distribution(key).model()
             draw = model.draw(model.fixed_n or n, np.random.default_rng(0))
