@@ -79,7 +79,8 @@ def main(argv=None) -> int:
                                       (r.force_balance_residual > 1e-10, "forces"),
                                       (check["worst_overlap"] > 1e-10, "overlap"), (pen > 1e-10, "penetration")) if bad]
         ok &= not why
-        print(f"| {shape} | `{c.spec}` | {packing.n} | {"cached" if mls_cpu is None else f"{mls_cpu:.1f}"} | {r.iterations} | {cpu:.2f} | "
+        mls_text = "cached" if mls_cpu is None else f"{mls_cpu:.1f}"
+        print(f"| {shape} | `{c.spec}` | {packing.n} | {mls_text} | {r.iterations} | {cpu:.2f} | "
               f"{abs(r.history['sqrt_inflation_minus_1'][-1]):.1e} | {r.history['max_displacement'][-1]:.1e} | "
               f"{r.n_contacts} ({len(r.wall_contacts)}) | {iso} | {r.n_stable} | {r.force_balance_residual:.1e} | "
               f"{check['worst_overlap']:.1e} | {'none' if math.isinf(pen) else f'{pen:.1e}'} | "

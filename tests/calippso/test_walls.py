@@ -194,3 +194,27 @@ def test_small_packings_are_certified_in_every_shape(certified, name):
     sigma = rad[:, None] + rad[None, :]
     assert np.max(1.0 - dist / sigma) <= 1e-10
     assert np.max((rad - c.wall_distance(x)) / rad) <= 1e-10
+
+
+def test_the_cli_certifies_in_a_container_and_keeps_it(certified, tmp_path, capsys):
+    """`spherejam calippso` on a packing in a capped cylinder: the output keeps the container, the summary's isostatic
+    excess is against the shape's own count, and the file's contact group holds the wall contacts."""
+    import json
+
+    import h5py
+
+    from spherejam.cli import main
+    from spherejam.core.packing_io import read_packing, write_packing
+
+    ls, _ = certified["capped cylinder"]
+    src, out = tmp_path / "in.h5", tmp_path / "out.h5"
+    write_packing(src, ls)
+    assert main(["calippso", str(src), "-o", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["is_isostatic"] == 1.0 and summary["isostatic_excess"] == 0.0
+    jammed = read_packing(out)
+    assert jammed.container.to_dict() == ls.container.to_dict()
+    assert jammed.container.wall_penetration(jammed.positions, jammed.diameters)[0] <= 1e-10
+    with h5py.File(out) as f:
+        walls = f["contacts/walls"][()]
+        assert len(f["contacts/wall_contacts"]) == len(walls) > 0 and set(walls) <= {0, 1, 2}  # caps, then the tube
