@@ -122,10 +122,10 @@ def cutoff_rows(positions: np.ndarray, box: float, cutoff):
     rij = r_i - r_j - n L of that image, sorted by (i, j, |rij|) (docs/calippso.md §1.2).
 
     ``box`` is the periodic cube's side, or a container's :class:`~spherejam.core.neighbours.Frame` (images along
-    its periodic axes only). ``cutoff`` is one absolute length for every pair, or per particle a reach w_i (absolute), the cutoff of pair
-    (i, j) then being (w_i + w_j) / 2: :func:`closable_reach` gives the rows a step can close (§1.4). While every
-    cutoff is below L/2 these are the pairs within it with their minimum-image vectors (:func:`pair_vectors`),
-    bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
+    its periodic axes only). ``cutoff`` is one absolute length for every pair, or per particle a reach w_i
+    (absolute), the cutoff of pair (i, j) then being (w_i + w_j) / 2: :func:`closable_reach` gives the rows a step
+    can close (§1.4). While every cutoff is below L/2 these are the pairs within it with their minimum-image vectors
+    (:func:`pair_vectors`), bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
     """
     n = positions.shape[0]
     reach = np.broadcast_to(np.asarray(cutoff, dtype=np.float64), (n,))
