@@ -90,7 +90,8 @@ class CalippsoResult:
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, docs §3).
     forces : (K,) float array
-        Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1).
+        Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1; in a container the mean
+        is over the wall forces too, ``wall_forces``).
     contact_vectors : (K, d) float array
         Unit vectors (r_i - r_j)/|r_i - r_j| (of the contact's image: in a small box a pair may touch through
         several images and is listed once per image): the force on i from j is ``forces * contact_vectors``.
