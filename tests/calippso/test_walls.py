@@ -218,3 +218,29 @@ def test_the_cli_certifies_in_a_container_and_keeps_it(certified, tmp_path, caps
     with h5py.File(out) as f:
         walls = f["contacts/walls"][()]
         assert len(f["contacts/wall_contacts"]) == len(walls) > 0 and set(walls) <= {0, 1, 2}  # caps, then the tube
+
+
+def test_a_container_run_resumes_from_its_checkpoint_on_the_same_path(certified, tmp_path):
+    """The sphere container's run stopped after 3 LPs and resumed takes the uninterrupted run's path, bit for bit: the
+    gauge pins and the step bound that follows the previous step (docs/containers.md §5) come back from the
+    checkpoint; a checkpoint of the same spheres in another container is not taken for it."""
+    ls, ref = certified["sphere"]
+    assert ref.iterations > 3
+    ckpt = tmp_path / "c.h5"
+    part = run_calippso(ls, max_iterations=3, checkpoint=ckpt, checkpoint_interval=0, progress_interval=1e9)
+    assert part.stop_reason == "max_iterations" and ckpt.exists()
+    done = run_calippso(ls, checkpoint=ckpt, progress_interval=1e9, max_iterations=200)
+    assert done.completed and done.iterations == ref.iterations
+    np.testing.assert_array_equal(done.packing.positions, ref.packing.positions)
+    np.testing.assert_array_equal(done.wall_forces, ref.wall_forces)
+    for key in ("sqrt_inflation_minus_1", "s_bound", "n_contacts", "phi"):
+        np.testing.assert_array_equal(done.history[key], ref.history[key], err_msg=key)
+    from spherejam.core.errors import PackingFileError
+
+    run_calippso(ls, max_iterations=1, checkpoint=ckpt, checkpoint_interval=0, progress_interval=1e9)
+    import dataclasses
+
+    # the same spheres, the same frame, a sphere wall 1 % wider
+    bigger = ls.replace(container=dataclasses.replace(ls.container, radius=1.01 * ls.container.radius))
+    with pytest.raises(PackingFileError, match="different input or parameters"):
+        run_calippso(bigger, checkpoint=ckpt, progress_interval=1e9)
