@@ -681,10 +681,17 @@ def _schedule(x, dia, loop, cfg: _Settings, previous_step: float | None = None) 
         None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit,
         widen=cfg.schedule == "adaptive")
     if cfg.walls is not None:  # a curved wall's margin vanishes with the steps (docs/containers.md §5)
-        capped = cfg.walls.capped_bound(sb, previous_step, float(dia.max()))
+        capped = cfg.walls.capped_bound(sb, previous_step, dia, math.sqrt(inflation_max))
         if capped < sb:
             sb = capped
             inflation_max = ((ell - 2.0 * math.sqrt(cfg.dim) * sb) / (2.0 * R)) ** 2
+        if cfg.walls.container.curved is not None:
+            # a small container: keep R - sqrt(Gamma_max) r >= 2 sqrt(m) s_bound for every sphere, so that the
+            # margin is defined (half the room the largest sphere has at Gamma = 1 bounds the step)
+            wall_r, across = cfg.walls.container.radius, math.sqrt(cfg.walls.across)
+            sb = min(sb, (wall_r - R) / (4.0 * across))
+            inflation_max = min(inflation_max, ((ell - 2.0 * math.sqrt(cfg.dim) * sb) / (2.0 * R)) ** 2,
+                                ((wall_r - 2.0 * across * sb) / R) ** 2)
     return _rows(x, dia, cfg, ell, sb, inflation_max, regime)
 
 

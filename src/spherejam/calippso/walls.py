@@ -30,8 +30,14 @@ from .constraints import Pins
 #: (docs/containers.md §5): the chord margin, ~ s_bound^2 / R, then vanishes as the steps do, quadratically, while a
 #: bound that stops a sphere grows by this factor per LP.
 TRUST_FACTOR = 4.0
-#: Smallest such bound, in units of the largest diameter (a previous step of exactly 0).
-TRUST_FLOOR = 1e-13
+#: Smallest such bound, in units of the largest diameter: ten times the displacement tolerance (docs/calippso.md
+#: §2.1), so that a converged LP's steps are below its bound and not stopped by it, while the margin, ~ 1e-16 D^2 / R,
+#: stays far below round-off. A smaller floor let a packing whose previous LP had no stable sphere (all steps 0)
+#: stop moving and pass the displacement test without being jammed.
+TRUST_FLOOR = 1e-8
+#: The margin is kept below this fraction of the smallest radius (the bound lowered to it): a larger one deflates a
+#: step that much (docs/containers.md §5), which once opened every contact of a small container at once.
+MARGIN_MAX = 1e-3
 
 
 def concave_margin(radius_wall: float, radii, sqrt_inflation_max: float, s_bound: float, across: int):
@@ -97,12 +103,20 @@ class LPWalls:
             return np.zeros(len(dia))
         return concave_margin(self.container.radius, 0.5 * dia, sqrt_inflation_max, s_bound, self.across)
 
-    def capped_bound(self, s_bound: float, previous_step: float | None, d_max: float) -> float:
-        """``s_bound``, at most :data:`TRUST_FACTOR` times ``previous_step`` (the previous LP's largest |s_mu| of a
-        stable sphere, absolute; None before the first LP) when there is a curved wall (docs/containers.md §5)."""
-        if self.container.curved is None or previous_step is None:
+    def capped_bound(self, s_bound: float, previous_step: float | None, dia: np.ndarray,
+                     sqrt_inflation_max: float) -> float:
+        """``s_bound``, with a curved wall at most :data:`TRUST_FACTOR` times ``previous_step`` (the previous LP's
+        largest |s_mu| of a stable sphere, absolute; None before the first LP; never below :data:`TRUST_FLOOR` D_max)
+        and low enough that the margin stays below :data:`MARGIN_MAX` r_min (docs/containers.md §5)."""
+        if self.container.curved is None:
             return s_bound
-        return min(s_bound, max(TRUST_FACTOR * previous_step, TRUST_FLOOR * d_max))
+        d_max = float(dia.max())
+        if previous_step is not None:
+            s_bound = min(s_bound, max(TRUST_FACTOR * previous_step, TRUST_FLOOR * d_max))
+        # delta <= S^2 / R'_min (concave_margin) <= MARGIN_MAX r_min
+        r_eff = self.container.radius - sqrt_inflation_max * 0.5 * d_max
+        small = math.sqrt(MARGIN_MAX * 0.5 * float(dia.min()) * max(r_eff, 0.0) / self.across)
+        return min(s_bound, max(small, TRUST_FLOOR * d_max))
 
     def rows(self, x: np.ndarray, dia: np.ndarray, sqrt_inflation_max: float, s_bound: float, margin: bool = True):
         """The sphere-wall rows a step with |s_mu| <= ``s_bound`` and Gamma <= Gamma_max can violate:
