@@ -46,7 +46,8 @@ def test_bad_argument_is_one_input_error_naming_it(kwargs, field):
 
 def test_jam_in_a_container():
     """A column by one call: the packing keeps its container, no sphere crosses the wall, the same seed gives the same
-    packing; a container with a box, or with a certificate (not yet), is refused in one line."""
+    packing; a container with a box is refused in one line; ``certify`` certifies in the container (its wall contacts
+    counted, isostatic by the shape's own count: docs/containers.md §5)."""
     import numpy as np
     import pytest
 
@@ -62,5 +63,8 @@ def test_jam_in_a_container():
     assert 0.45 < a.phi_J < 0.64
     with pytest.raises(InputError, match="box"):
         jam(200, container="slab:height=4", box=8.0)
-    with pytest.raises(InputError, match="certify"):
-        jam(200, container="slab:height=4", certify=True)
+    s = jam(40, container="slab:height=4", closest={"final_rate": 1e-1}, certify=True, seed=3)
+    cert = s.certificate
+    assert cert.completed and cert.isostatic and s.packing.container.spec == "slab:height=4.0"
+    assert cert.n_contacts == 3 * cert.n_stable - 2 + 1 and len(cert.wall_contacts) > 0
+    assert s.to_pandas()["contacts"].sum() == 2 * len(cert.pairs) + len(cert.wall_contacts)

@@ -87,6 +87,7 @@ class JamResult:
         if self.certificate is not None:  # the certificate's contact network, of its own (a touch denser) packing
             c = self.certificate
             contacts = np.bincount(c.pairs[:, 0], minlength=p.n) + np.bincount(c.pairs[:, 1], minlength=p.n)
+            contacts += np.bincount(c.wall_contacts, minlength=p.n)  # a container's walls (none in a periodic box)
             cols["contacts"] = contacts.astype(np.int64)
             cols["rattler"] = np.asarray(c.rattlers, dtype=bool)
         return cols
@@ -186,8 +187,8 @@ def jam(
         A container spec (docs/containers.md): ``cylinder:diameter=10`` (a column, D/<d> = 10, its length from N),
         ``slab:height=8``, ``box:x=10,y=10,z=10``, ``sphere:diameter=12`` (N from its size: ``n=None``),
         ``periodic:x=10,y=10,z=40``; lengths in mean diameters of the final packing, the achieved ones in
-        ``result.packing.container.in_diameters(result.packing.mean_diameter)``. Not with ``box``; CALiPPSO
-        (``certify``) does not take a container yet and refuses it in one line.
+        ``result.packing.container.in_diameters(result.packing.mean_diameter)``. Not with ``box``; ``certify``
+        certifies in the container (its wall rows and isostatic count: docs/containers.md §5).
     p_max : float
         LS stops when the reduced pressure reaches this (the paper's 1e12).
     progress : bool
@@ -218,8 +219,6 @@ def jam(
 
     if container is not None:
         require(box is None, "box", box, "must be left out with a container (the container sets the size)")
-        require(calippso_options is None, "certify", certify, "CALiPPSO does not take a container yet "
-                "(docs/containers.md §5)")
         start = poisson_packing(n, psd=psd, seed=seeds[0], container=container)
     else:
         start = poisson_packing(n, psd=psd, seed=seeds[0], phi_nominal=DEFAULT_PHI_NOMINAL)

@@ -105,16 +105,22 @@ def extended_forces(result: CalippsoResult) -> np.ndarray:
 
 
 def contact_arrays(result: CalippsoResult) -> dict[str, np.ndarray]:
-    """The contact network, forces and near-contact gaps of a result, as arrays for the packing file."""
+    """The contact network, forces and near-contact gaps of a result, as arrays for the packing file; in a container
+    also its wall contacts (docs/containers.md §5), which count towards a sphere's contacts (a buckler has d + 1,
+    walls included)."""
     n = result.rattlers.size
-    z = np.bincount(result.pairs.ravel(), minlength=n)
+    z = np.bincount(result.pairs.ravel(), minlength=n) + np.bincount(result.wall_contacts, minlength=n)
     buckler = z == result.packing.dim + 1
     extended = ~buckler[result.pairs[:, 0]] & ~buckler[result.pairs[:, 1]]
-    return {
+    out = {
         "pairs": result.pairs, "forces": result.forces, "extended": extended,
         "contact_vectors": result.contact_vectors, "rattlers": result.rattlers,
         "gaps": result.gaps, "gap_pairs": result.gap_pairs,
     }
+    if not result.packing.container.is_periodic_cube:
+        out.update(wall_contacts=result.wall_contacts, walls=result.walls, wall_forces=result.wall_forces,
+                   wall_vectors=result.wall_vectors)
+    return out
 
 
 #: name -> (long_name, units) of the fitted exponents of :func:`distributions` (a CALiPPSO summary file carries them;

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..core.rattlers import rattler_mask
-from .constraints import constraint_rows, pair_keys, particle_force_sums
+from .constraints import as_pins, constraint_rows, pair_keys, particle_force_sums
 from .highs import highs_model
 from .solution import LPSolution
 
@@ -43,29 +43,37 @@ def vertex_prediction(contact, duals, s, s_bound, rij, pi, pj, n, pinned):
     mean_force = float(np.mean(weight[weight > 0] * np.linalg.norm(rij[weight > 0], axis=1)))
     pushed = np.abs(particle_force_sums(rij, weight, pi, pj, n)) > 1e-6 * mean_force
     held = np.where(pushed & (np.abs(s) >= (1.0 - 1e-9) * s_bound), np.sign(s), 0).astype(np.int8)
-    held[pinned] = 0
-    rattler, _, nu = _walled_network(pi[contact], pj[contact], held, n)
+    pins = as_pins(pinned, n, s.shape[1])
+    held.ravel()[pins.columns] = 0
+    rattler, _, nu = _walled_network(pi[contact], pj[contact], held, n, pins)
     stable = contact & ~rattler[pi] & ~rattler[pj]
     if int(np.count_nonzero(stable)) != nu:
         return None
     return np.sort(pair_keys(pi, pj, n)[stable]), rattler, held
 
 
-def _walled_network(ci, cj, held, n):
+def _walled_network(ci, cj, held, n, pins=None):
     """Rattlers of the contact graph (pairs ``ci``-``cj``) with the s bounds as a wall: node n, never a rattler, and
     each held component (``held`` (N, d), nonzero) a contact with it, so a particle pressed against its bound is
-    stable. Clears ``held`` on the rattlers, in place. Returns ``(rattler mask, N_s, contacts among stable particles
-    that make the square system with the held components: d (N_s - 1) + 1 - held)``."""
+    stable. A container's wall nodes (``pins``, :class:`~.constraints.Pins`) are never rattlers either. Clears
+    ``held`` on the rattlers, in place. Returns ``(rattler mask, N_s, contacts among stable particles that make the
+    square system with the held components: d N_s - z + 1 - held)``, z the zero modes (d in a periodic box)."""
     dim = held.shape[1]
     wall_i = np.nonzero(held)[0]
+    pins = as_pins(0, n, dim) if pins is None else pins
+    walls = None
+    if pins.spheres < n:  # a container's wall nodes stay in the core
+        walls = np.zeros(n + 1, dtype=np.int64)
+        walls[pins.spheres:] = dim + 1
     rattler = rattler_mask(n + 1, np.concatenate([ci, wall_i]), np.concatenate([cj, np.full(wall_i.size, n)]),
-                           dim + 1)[:n]
+                           dim + 1, walls)[:n]
     held[rattler] = 0
-    n_stable = n - int(np.count_nonzero(rattler))
-    return rattler, n_stable, dim * (n_stable - 1) + 1 - int(np.count_nonzero(held))
+    n_stable = pins.spheres - int(np.count_nonzero(rattler[:pins.spheres]))
+    return rattler, n_stable, dim * n_stable - pins.zero_modes + 1 - int(np.count_nonzero(held))
 
 
-def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None):
+def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_dual=None, s_bound=None,
+                              pinned=None):
     """The vertex an interior point of the LP is heading for: ``(contact keys, rattler mask, fixed)``, or None.
 
     On the central path lambda_k * slack_k is the same small number for every row, so the score
@@ -87,7 +95,8 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
         distance = np.maximum(s_bound - np.abs(s), 0.0) / s_bound
         bound_score = np.abs(col_dual) * m * sigma / 2.0 / np.maximum(distance, 1e-300)
         fixed = np.where(bound_score > 1.0, np.sign(s), 0).astype(np.int8)
-    rattler, n_stable, nu = _walled_network(pi[near], pj[near], fixed, n)
+    rattler, n_stable, nu = _walled_network(pi[near], pj[near], fixed, n,
+                                            None if pinned is None else as_pins(pinned, n, dim))
     stable = np.flatnonzero(~rattler[pi] & ~rattler[pj])
     if n_stable < dim + 2 or nu < 1 or stable.size < nu:
         return None
@@ -368,12 +377,12 @@ def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinn
     from scipy.sparse import csr_matrix
 
     dim = rij.shape[1]
-    if rattler[pinned]:
+    pins = as_pins(pinned, n, dim)
+    if np.any(rattler[pins.pinned_spheres()]):
         raise _NoVertex("the pinned particle is predicted a rattler")
-    free = ~rattler
-    free[pinned] = False
-    # unknowns: the s components of stable, non-pinned particles, then Gamma
-    free_comp = np.repeat(free, dim)
+    # unknowns: the s components of stable particles that are not pinned (nor a wall), then Gamma
+    free_comp = np.repeat(~rattler, dim)
+    free_comp[pins.columns] = False
     col_of = np.full(n * dim + 1, -1, dtype=np.int64)
     col_of[:-1][free_comp] = np.arange(np.count_nonzero(free_comp))
     nu = int(np.count_nonzero(free_comp)) + 1
@@ -526,7 +535,7 @@ def _vertex_displacements(system: _ContactSystem, u, rattler_s, s_bound: float, 
     """The vertex's s (N, d): the unknowns ``u``, the pinned particle at 0, the rattlers at ``rattler_s`` (within the
     bounds; 0 if None)."""
     s = np.zeros(shape) if rattler_s is None else np.clip(rattler_s, -s_bound, s_bound)
-    s[pinned] = 0.0
+    s.ravel()[as_pins(pinned, shape[0], shape[1]).columns] = 0.0
     s.ravel()[system.free_comp] = np.clip(u[:-1], -s_bound, s_bound)  # round-off of an active bound row
     return s
 

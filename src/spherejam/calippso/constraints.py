@@ -17,11 +17,12 @@ In a box smaller than two cutoffs a pair may meet through several images, and th
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from ..core.neighbours import minimum_image, pair_images, pairs_within
+from ..core.neighbours import Frame, minimum_image, pair_images, pairs_within
 
 
 @njit(cache=True)
@@ -120,14 +121,17 @@ def cutoff_rows(positions: np.ndarray, box: float, cutoff):
     """The LP's rows: every periodic image of every pair i < j closer than its cutoff, as ``(pi, pj, rij)`` with
     rij = r_i - r_j - n L of that image, sorted by (i, j, |rij|) (docs/calippso.md §1.2).
 
-    ``cutoff`` is one absolute length for every pair, or per particle a reach w_i (absolute), the cutoff of pair
-    (i, j) then being (w_i + w_j) / 2: :func:`closable_reach` gives the rows a step can close (§1.4). While every
-    cutoff is below L/2 these are the pairs within it with their minimum-image vectors (:func:`pair_vectors`),
-    bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
+    ``box`` is the periodic cube's side, or a container's :class:`~spherejam.core.neighbours.Frame` (images along
+    its periodic axes only). ``cutoff`` is one absolute length for every pair, or per particle a reach w_i
+    (absolute), the cutoff of pair (i, j) then being (w_i + w_j) / 2: :func:`closable_reach` gives the rows a step
+    can close (§1.4). While every cutoff is below L/2 these are the pairs within it with their minimum-image vectors
+    (:func:`pair_vectors`), bit for bit; a sphere's own images are never within a cutoff <= L (§1.4).
     """
     n = positions.shape[0]
     reach = np.broadcast_to(np.asarray(cutoff, dtype=np.float64), (n,))
     pi, pj, d = pair_images(positions, reach, box, 1.0)
+    if isinstance(box, Frame):  # a container's frame (docs/containers.md §5): each row's own image vector
+        return pi, pj, -d
     rij = pair_vectors(positions, box, pi, pj)
     if np.any((pi[1:] == pi[:-1]) & (pj[1:] == pj[:-1])):
         # a pair listed more than once: shift each row from the minimum image to its own image by whole boxes
@@ -168,3 +172,48 @@ def pair_keys(pi: np.ndarray, pj: np.ndarray, n: int) -> np.ndarray:
     rank = np.empty(k.size, dtype=np.int64)
     rank[order] = np.arange(k.size) - start
     return key + rank * (np.int64(n) * n)
+
+
+@dataclass(frozen=True)
+class Pins:
+    """The s columns an LP fixes at 0: the gauge pins that remove its zero modes (rigid motions no row resists), and
+    every column of its wall nodes (docs/containers.md §5).
+
+    The LP's nodes are its ``spheres`` spheres, then one node per wall of a container, which never moves: a
+    sphere-wall row is a pair row (i, wall node) with r_ij from the wall to the sphere (:mod:`.walls`). ``columns``
+    are flat column indices (node d + axis, d = ``dim``), sorted; those of spheres are the gauge pins, one per zero
+    mode. The periodic cube pins one sphere's d components (docs/calippso.md §1.1, §1.7): :func:`as_pins`.
+    """
+
+    columns: np.ndarray
+    spheres: int
+    dim: int
+
+    @property
+    def gauge(self) -> np.ndarray:
+        """The gauge pins (columns of spheres)."""
+        return self.columns[self.columns < self.spheres * self.dim]
+
+    @property
+    def zero_modes(self) -> int:
+        """Zero modes the gauge pins remove: one per pinned sphere column."""
+        return int(self.gauge.size)
+
+    def pinned_spheres(self) -> np.ndarray:
+        """The spheres with a pinned component (they must not be rattlers: docs/calippso.md §1.7)."""
+        return np.unique(self.gauge // self.dim)
+
+    def mask(self, nodes: int) -> np.ndarray:
+        """(nodes, d) bool: True where a column is fixed."""
+        out = np.zeros(nodes * self.dim, dtype=bool)
+        out[self.columns] = True
+        return out.reshape(nodes, self.dim)
+
+
+def as_pins(pinned, n: int, dim: int) -> Pins:
+    """``pinned`` as :class:`Pins`: a sphere index (every component of that sphere pinned, no walls: the periodic
+    cube; ``n`` spheres) or already :class:`Pins`."""
+    if isinstance(pinned, Pins):
+        return pinned
+    p = int(pinned)
+    return Pins(np.arange(p * dim, (p + 1) * dim, dtype=np.int64), int(n), int(dim))

@@ -17,7 +17,7 @@ import numpy as np
 from ..core.errors import InputError, SimulationError, require
 from ..core.validation import LP_SOLVERS
 from .active_set import MAX_PIVOTS, interior_point_prediction, solve_active_set
-from .constraints import constraint_rows, pair_keys, particle_force_sums, row_excess
+from .constraints import Pins, as_pins, constraint_rows, pair_keys, particle_force_sums, row_excess
 from .highs import highs_model
 from .solution import LPBasis, LPSolution
 
@@ -140,7 +140,7 @@ def _vertex_basis(vertex: LPSolution, rattler: np.ndarray, fixed: np.ndarray, pi
     n, dim = vertex.s.shape
     cols = np.where(vertex.s.ravel() > 0, 2, 0).astype(np.int8)  # kUpper / kLower
     free = np.repeat(~rattler, dim) & (fixed.ravel() == 0)
-    free[pinned * dim:(pinned + 1) * dim] = False
+    free[as_pins(pinned, n, dim).columns] = False
     cols[free] = _BASIC
     cols = np.append(cols, np.int8(_BASIC))  # Gamma
     rows = np.where(vertex.duals > 0, 2, _BASIC).astype(np.int8)
@@ -212,7 +212,8 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
              crossover: bool = True, cuts: bool = False, interior: bool = False) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
-    ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0,
+    ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0 (or the
+    :class:`~.constraints.Pins` of a container's LP: gauge pins and wall nodes, docs/containers.md §5),
     ``inflation_bounds`` the (lower, upper) bounds of the inflation factor Gamma. With ``warm`` (the basis of the
     previous LP) primal simplex starts from it: consecutive LPs share most of their active rows, so it re-optimises
     in a few pivots where interior point starts from scratch (docs/calippso.md §5.3). Failing that, or without
@@ -295,7 +296,7 @@ class _Model:
     pj: np.ndarray
     n: int
     s_bound: float
-    pinned: int
+    pinned: int | Pins  # a sphere whose components are pinned, or the LP's fixed columns (constraints.Pins)
     inflation_bounds: tuple[float, float]
     lp: Any  # highspy.HighsLp
     rhs: np.ndarray
@@ -313,8 +314,9 @@ class _Model:
         cost[-1] = -1.0
         lower = np.full(ncol, -s_bound)
         upper = np.full(ncol, s_bound)
-        lower[pinned * dim:(pinned + 1) * dim] = 0.0
-        upper[pinned * dim:(pinned + 1) * dim] = 0.0
+        fixed = as_pins(pinned, n, dim).columns
+        lower[fixed] = 0.0
+        upper[fixed] = 0.0
         lower[-1], upper[-1] = inflation_bounds
         lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
         return cls(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, lp, rhs, lower, upper,
@@ -390,9 +392,9 @@ def _certified_vertex(h, model: _Model, tolerance: float):
         duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
         s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
         guess = interior_point_prediction(model.pi, model.pj, n, dim, model.sigma2, duals, slack, s_ipm,
-                                          np.asarray(sol.col_dual)[:-1].reshape(n, dim), model.s_bound)
+                                          np.asarray(sol.col_dual)[:-1].reshape(n, dim), model.s_bound, pinned)
         if guess is not None:
-            guess[2][pinned] = 0
+            guess[2].ravel()[as_pins(pinned, n, dim).columns] = 0
             vertex = solve_active_set(model.rij, model.sigma2, model.pi, model.pj, n, guess[0], guess[1],
                                       s_bound=model.s_bound, pinned=pinned, inflation_bounds=model.inflation_bounds,
                                       rattler_s=s_ipm, fixed=guess[2], max_pivots=MAX_PIVOTS, why=why)

@@ -10,24 +10,35 @@ import numpy as np
 
 from ..core.rattlers import rattler_mask
 from ..core.neighbours import pair_images
-from .constraints import pair_keys, particle_force_sums
+from .constraints import as_pins, pair_keys, particle_force_sums
 
 
-def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
+def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins=None):
     """Contacts, rattlers and force balance from LP duals.
 
-    Returns ``(contact_mask over pairs, rattler mask, n_contacts among non-rattlers, isostatic, residual)``.
+    ``n`` is the LP's node count; with ``pins`` (:class:`~.constraints.Pins`, a container's LP) the nodes from
+    ``pins.spheres`` on are walls: never rattlers, their contacts count for their spheres and in N_c, and the force
+    balance is taken over spheres only (a wall absorbs its forces). Isostatic: N_c = d N_s - z + 1, z the zero modes
+    (d in a periodic box: d (N_s - 1) + 1; docs/containers.md §4).
+
+    Returns ``(contact_mask over pairs, rattler mask over nodes, n_contacts among non-rattlers, isostatic,
+    residual)``.
     """
+    pins = as_pins(0, n, dim) if pins is None else pins
     contact = duals * sigma2 * n > zero_force
     ci, cj = pi[contact], pj[contact]
-    rattler = rattler_mask(n, ci, cj, dim + 1)
+    walls = None
+    if pins.spheres < n:
+        walls = np.zeros(n, dtype=np.int64)
+        walls[pins.spheres:] = dim + 1  # a wall never peels
+    rattler = rattler_mask(n, ci, cj, dim + 1, walls)
     stable_pair = contact & ~rattler[pi] & ~rattler[pj]
     n_contacts = int(np.count_nonzero(stable_pair))
-    n_stable = n - int(np.count_nonzero(rattler))
-    isostatic = bool(n_stable > 0 and n_contacts == dim * (n_stable - 1) + 1)
+    n_stable = pins.spheres - int(np.count_nonzero(rattler[:pins.spheres]))
+    isostatic = bool(n_stable > 0 and n_contacts == dim * n_stable - pins.zero_modes + 1)
     # every contact force counts (in a degenerate, crystalline vertex a "rattler" can hold d collinear forces)
     weight = np.where(contact, duals, 0.0)
-    residual = force_balance(rij, weight, pi, pj, n, rattler)
+    residual = force_balance(rij, weight, pi, pj, n, rattler, pins.spheres)
     return contact, rattler, n_contacts, isostatic, residual
 
 
@@ -35,14 +46,15 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force):
 TOUCHING_GAP = 1e-9
 
 
-def balanced_forces(rij, sigma2, pi, pj, n):
+def balanced_forces(rij, sigma2, pi, pj, n, spheres=None):
     """Duals of a force network on the touching rows, for an LP whose own duals carry none (a crystal: FCC, the
     N = 2 BCC; the optimum Gamma = 1 is degenerate and the solver's vertex may put every dual to zero).
 
     Contact forces f_k >= 0 on the rows with gap below :data:`TOUCHING_GAP`, balanced on every sphere
     (sum_k f_k r_k = 0 per sphere), summing to 1, with the smallest force as large as possible (so that in a
     symmetric crystal every contact carries one). Returned as duals (f_k / sigma2_k, zero on the other rows), as the
-    main LP's would be; all zero if no such network exists (a sphere jammed only by its own image has no row)."""
+    main LP's would be; all zero if no such network exists (a sphere jammed only by its own image has no row).
+    Nodes from ``spheres`` on are a container's walls, which need no balance."""
     from scipy.optimize import linprog
     from scipy.sparse import coo_matrix, vstack
 
@@ -58,9 +70,12 @@ def balanced_forces(rij, sigma2, pi, pj, n):
     cols = np.concatenate([np.repeat(k[:, None], dim, axis=1)] * 2)
     vals = np.concatenate([r, -r])
     balance = coo_matrix((vals.ravel(), (rows.ravel(), cols.ravel())), shape=(n * dim, m + 1))
+    balanced = n if spheres is None else spheres
+    if balanced < n:
+        balance = balance.tocsr()[:balanced * dim]
     total = coo_matrix((np.ones(m), (np.zeros(m, int), k)), shape=(1, m + 1))
     a_eq = vstack([balance, total]).tocsr()
-    b_eq = np.concatenate([np.zeros(n * dim), [1.0]])
+    b_eq = np.concatenate([np.zeros(balanced * dim), [1.0]])
     a_ub = coo_matrix((np.concatenate([-np.ones(m), np.ones(m)]), (np.concatenate([k, k]),
                        np.concatenate([k, np.full(m, m)]))), shape=(m, m + 1)).tocsr()  # t <= f_k
     cost = np.zeros(m + 1)
@@ -73,14 +88,16 @@ def balanced_forces(rij, sigma2, pi, pj, n):
     return duals
 
 
-def force_balance(rij, weight, pi, pj, n, rattler) -> float:
-    """max over non-rattlers of |sum_j w_ij r_ij| divided by the mean w_ij |r_ij| over pairs with w > 0."""
+def force_balance(rij, weight, pi, pj, n, rattler, spheres=None) -> float:
+    """max over non-rattler spheres of |sum_j w_ij r_ij| divided by the mean w_ij |r_ij| over rows with w > 0 (wall
+    rows included: a wall's force is lambda r_iw on its sphere). Nodes from ``spheres`` on are walls, left out."""
+    spheres = n if spheres is None else spheres
     active = weight > 0
-    if not np.any(active) or np.all(rattler):
+    if not np.any(active) or np.all(rattler[:spheres]):
         return math.inf
     mean_force = float(np.mean(weight[active] * np.linalg.norm(rij[active], axis=1)))
-    net = particle_force_sums(rij, weight, pi, pj, n)
-    return float(np.max(np.linalg.norm(net[~rattler], axis=1)) / mean_force)
+    net = particle_force_sums(rij, weight, pi, pj, n)[:spheres]
+    return float(np.max(np.linalg.norm(net[~rattler[:spheres]], axis=1)) / mean_force)
 
 
 def initial_pin(x, dia, box) -> int:
@@ -93,10 +110,13 @@ def initial_pin(x, dia, box) -> int:
     return int(np.argmax(count))
 
 
-def repin(contact, pi, pj, rattler, n) -> int:
-    """The non-rattler with the most contacts: the pinned particle once the pinned one turned out a rattler."""
+def repin(contact, pi, pj, rattler, n, spheres=None) -> int:
+    """The non-rattler with the most contacts: the pinned particle once the pinned one turned out a rattler (nodes
+    from ``spheres`` on are a container's walls, never pinned)."""
     count = np.bincount(np.concatenate([pi[contact], pj[contact]]), minlength=n)
     count[rattler] = -1
+    if spheres is not None:
+        count[spheres:] = -1
     return int(np.argmax(count))
 
 

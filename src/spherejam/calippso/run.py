@@ -28,11 +28,11 @@ from ..core import interrupt
 from ..core.checkpoint import Checkpoint, fingerprint
 from ..core.errors import OverlapError, SimulationError, require
 from ..core.history import History
-from ..core.neighbours import pairs_within
+from ..core.neighbours import Frame, pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
-from .constraints import closable_reach, cutoff_rows, pair_keys
+from .constraints import Pins, closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
@@ -40,6 +40,7 @@ from .network import balanced_forces, contact_network, initial_pin, near_gaps, r
 from .schedule import (REFERENCE_INITIAL_SQRT_INFLATION, REGIME_THRESHOLDS, SCHEDULES, cutoff_and_bound,
                        nearest_gap_median, step_limits)
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
+from .walls import LPWalls
 
 _log = logging.getLogger("spherejam")
 
@@ -89,16 +90,18 @@ class CalippsoResult:
     pairs : (K, 2) int array
         Contacts i < j among non-rattlers (a contact = pair with a positive dual, docs §3).
     forces : (K,) float array
-        Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1).
+        Contact force magnitudes f_ij = lambda_ij r_ij, divided by their mean (so mean 1; in a container the mean
+        is over the wall forces too, ``wall_forces``).
     contact_vectors : (K, d) float array
         Unit vectors (r_i - r_j)/|r_i - r_j| (of the contact's image: in a small box a pair may touch through
         several images and is listed once per image): the force on i from j is ``forces * contact_vectors``.
     rattlers : (N,) bool array
         Particles outside the (d+1)-core of the contact graph.
     n_contacts : int
-        Contacts among non-rattlers, N_c.
+        Contacts among non-rattlers, N_c (sphere-wall contacts included).
     isostatic : bool
-        N_c == d (N_s - 1) + 1 with N_s non-rattlers (one state of self-stress).
+        N_c == d (N_s - 1) + 1 with N_s non-rattlers (one state of self-stress); in a container N_c == d N_s - z + 1,
+        z its zero modes (``Container.isostatic_contacts``, docs/containers.md §4).
     force_balance_residual : float
         max over non-rattlers of |sum_j f_ij n_ij|, in units of the mean contact force (dimensionless).
     gaps : (G,) float array
@@ -111,6 +114,11 @@ class CalippsoResult:
         Seconds for the whole call.
     fine_tuned : bool
         Forces come from the final unbounded LP (False: it failed and the last main-loop LP's duals are used).
+    wall_contacts, walls, wall_forces, wall_vectors : arrays
+        In a container (docs/containers.md §5): the sphere of each contact with a wall among non-rattlers, its wall
+        (the planes in axis order, low side first, then the curved wall), the force (in units of the mean over every
+        contact, walls included; ``forces`` shares that unit) and its unit vector from the wall to the centre (the
+        wall pushes the sphere along it). Empty in a periodic box.
     """
 
     packing: Packing
@@ -130,6 +138,10 @@ class CalippsoResult:
     wall_time: float
     fine_tuned: bool
     counters: dict[str, Any] = field(default_factory=dict)
+    wall_contacts: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    walls: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
+    wall_forces: np.ndarray = field(default_factory=lambda: np.empty(0))
+    wall_vectors: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
 
     @property
     def completed(self) -> bool:
@@ -160,7 +172,7 @@ class CalippsoResult:
             "force_balance_residual": self.force_balance_residual,
             "n_contacts": float(self.n_contacts),
             "n_stable": float(self.n_stable),
-            "isostatic_excess": float(self.n_contacts - (self.packing.dim * (self.n_stable - 1) + 1)),
+            "isostatic_excess": float(self.n_contacts - self.packing.container.isostatic_contacts(self.n_stable)),
             "wall_time": self.wall_time,
         }
 
@@ -339,8 +351,10 @@ def run_calippso(
     run = _Run.start(packing, cfg, initial_sqrt_inflation)
     parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
                              displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
-    ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, {
-        k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}), checkpoint_interval)
+    hashed = {k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}
+    if cfg.walls is not None:  # the cube's fingerprint stays as it was
+        hashed["container"] = packing.container.to_dict()
+    ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, hashed), checkpoint_interval)
     run.resume(ckpt)
     log = LPLog(lp_log)
     log.start(run.history.as_arrays())
@@ -380,11 +394,17 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_to
               interior_steps) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
-    packing.require_cube("CALiPPSO")  # wall rows: docs/containers.md §5
     n = packing.n
     unit = float(packing.diameters.max())  # internal length unit: the initial largest diameter
+    container = packing.container
+    walls, box, period = None, packing.box / unit, packing.box / unit
+    if not container.is_periodic_cube:  # any other container: its frame, walls and zero modes (docs/containers.md §5)
+        walls = LPWalls.of(container, unit, n)
+        box = Frame.of(walls.container)
+        period = min((L for L, p in zip(walls.container.lengths, walls.container.periodic) if p), default=math.inf)
     return _Settings(
-        n=n, dim=packing.dim, unit=unit, box=packing.box / unit, cutoff0=2.0 if cutoff is None else float(cutoff),
+        n=n, dim=packing.dim, unit=unit, box=box, period=period, walls=walls,
+        cutoff0=2.0 if cutoff is None else float(cutoff),
         s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
         solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver, threads=int(threads),
         crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
@@ -416,15 +436,17 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
     packing in the input's units and the counters. The checkpoint goes once the run has converged; otherwise it is
     saved for a later call with a larger ``max_iterations`` to continue from."""
     lp, duals, fine_tuned, fine_inflation = _force_lp(run, cfg, fine_tune)
-    contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals, cfg.n,
-                                                                        cfg.dim, cfg.zero_force)
+    pins = None if cfg.walls is None else _pins(run.loop, cfg)
+    contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
+                                                                        cfg.nodes, cfg.dim, cfg.zero_force, pins)
     if converged and not has_force_network(n_contacts, residual):  # a degenerate dual (a crystal): seek the forces
-        duals = balanced_forces(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n)
+        duals = balanced_forces(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, cfg.n)
         contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
-                                                                            cfg.n, cfg.dim, cfg.zero_force)
-    pairs, forces, vectors, stable_pair = _contact_forces(lp, duals, contact, rattler)
+                                                                            cfg.nodes, cfg.dim, cfg.zero_force, pins)
+    pairs, forces, vectors, stable_pair, on_wall = _contact_forces(lp, duals, contact, rattler, cfg.n)
     gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
-                                pair_keys(lp.pi, lp.pj, cfg.n)[stable_pair], cfg.n)
+                                pair_keys(lp.pi, lp.pj, cfg.nodes)[stable_pair], cfg.nodes)
+    rattler = rattler[:cfg.n]
     out = _jammed_packing(packing, run.x * cfg.unit, run.dia * cfg.unit, parameters)
     final_report = out.check(overlap_tolerance)
     if not final_report.ok:  # cannot happen by construction; never return an overlapping packing
@@ -454,24 +476,33 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         packing=out, stop_reason=stop_reason, iterations=run.iteration, history=run.history.as_arrays(),
         pairs=pairs, forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts,
         isostatic=isostatic, force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial,
-        wall_time=wall, fine_tuned=fine_tuned, counters=counters,
+        wall_time=wall, fine_tuned=fine_tuned, counters=counters, **on_wall,
     )
 
 
-def _contact_forces(lp: _LP, duals, contact, rattler):
+def _contact_forces(lp: _LP, duals, contact, rattler, n: int):
     """The contacts among non-rattlers: ``(pairs (K, 2), forces f_ij = lambda_ij r_ij divided by their mean, unit
-    vectors (r_i - r_j)/|r_i - r_j|, the mask of these rows among the LP's)``."""
-    stable_pair = contact & ~rattler[lp.pi] & ~rattler[lp.pj]
+    vectors (r_i - r_j)/|r_i - r_j|, the mask of these sphere-sphere rows among the LP's, the wall contacts)``. Rows
+    with a node >= ``n`` are a container's wall contacts (docs/containers.md §5), returned apart as the
+    :class:`CalippsoResult` fields ``wall_contacts``, ``walls``, ``wall_forces``, ``wall_vectors``; the mean force
+    is over every contact, walls included."""
+    stable = contact & ~rattler[lp.pi] & ~rattler[lp.pj]
     r_norm = np.linalg.norm(lp.rij, axis=1)
-    f = duals[stable_pair] * r_norm[stable_pair]
-    forces = f / f.mean() if f.size else f
+    f = duals * r_norm
+    mean = f[stable].mean() if np.any(stable) else 1.0
+    stable_pair = stable & (lp.pj < n)
+    forces = f[stable_pair] / mean
     pairs = np.stack([lp.pi[stable_pair], lp.pj[stable_pair]], axis=1)
     vectors = lp.rij[stable_pair] / r_norm[stable_pair, None]
-    return pairs, forces, vectors, stable_pair
+    on = stable & (lp.pj >= n)
+    on_wall = {"wall_contacts": lp.pi[on], "walls": lp.pj[on] - n, "wall_forces": f[on] / mean,
+               "wall_vectors": lp.rij[on] / r_norm[on, None]}
+    return pairs, forces, vectors, stable_pair, on_wall
 
 
 def _jammed_packing(packing: Packing, positions, diameters, parameters) -> Packing:
-    """The output packing: the input's box and metadata (but its provenance and pressure), marked as CALiPPSO's."""
+    """The output packing: the input's box or container and metadata (but its provenance and pressure), marked as
+    CALiPPSO's."""
     return Packing(
         positions, diameters, packing.box,
         {
@@ -479,6 +510,7 @@ def _jammed_packing(packing: Packing, positions, diameters, parameters) -> Packi
             "algorithm": "calippso",
             "parameters": {**parameters, "input_algorithm": packing.metadata.get("algorithm")},
         },
+        None if packing.container.is_periodic_cube else packing.container,
     )
 
 
@@ -494,6 +526,8 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
         sqrt_inflation, max_s = _iteration(run, cfg, progress)
         log.append({k: run.history.last(k) for k in run.history.as_arrays()}, run.iteration)
         vertex = run.last[1].method_name != "interior"  # an interior step's s is no vertex's: never converged on
+        if cfg.walls is not None:  # a step deflated by a curved wall's margin is no closer to jamming
+            sqrt_inflation = 1.0 + abs(sqrt_inflation - 1.0)
         if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             return True
         if ckpt.due():
@@ -509,7 +543,10 @@ def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, fl
     ``(sqrt(Gamma) as applied, max |s_{i,mu}| over non-rattlers in units of the largest diameter)``."""
     loop = run.loop
     cpu_it, wall_it = time.process_time(), time.perf_counter()
-    lp = _schedule(run.x, run.dia, loop, cfg)
+    previous = None
+    if run.iteration > 0 and cfg.walls is not None:
+        previous = run.history.last("max_displacement") * float(run.dia.max())
+    lp = _schedule(run.x, run.dia, loop, cfg, previous)
     cpu0 = time.process_time()
     sol = _solve(lp, loop, cfg, run.tally, run.iteration)
     run.iteration += 1
@@ -517,9 +554,9 @@ def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, fl
     run.tally.count(sol, lp_cpu)
     contact, rattler, n_contacts, isostatic, gained, lost = _check(lp, sol, loop, cfg)
     at_bound = int(np.count_nonzero(np.abs(sol.s[~rattler]) >= (1.0 - 1e-9) * lp.s_bound))  # docs §1.5
-    run.x, run.dia, sqrt_inflation, correction = _step(run.x, run.dia, sol, cfg.box, run.iteration)
+    run.x, run.dia, sqrt_inflation, correction = _step(run.x, run.dia, sol, lp, cfg, run.iteration)
     max_s, max_s_all = _largest_displacements(sol.s, rattler, run.dia)
-    phi = _phi(run.dia, cfg.box, cfg.dim)
+    phi = _phi(run.dia, cfg)
     run.history.append(
         sqrt_inflation_minus_1=sqrt_inflation - 1.0, max_displacement=max_s, max_displacement_all=max_s_all,
         phi=phi, n_constraints=len(lp.pi), solve_time=sol.solve_time, cpu_time=lp_cpu,
@@ -539,7 +576,7 @@ def _iteration(run: _Run, cfg: _Settings, progress: Progress) -> tuple[float, fl
     if sol.failed:  # what a fallback cost is spent on: in the log, not only in the method code
         _log.info("calippso it %d solved by %s after: %s", run.iteration, sol.method, sol.failed)
     run.last = (lp, sol, rattler)
-    _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation)
+    _hand_over(loop, lp, at_bound, contact, rattler, sqrt_inflation, cfg, run.x)
     return sqrt_inflation, max_s
 
 
@@ -553,7 +590,9 @@ class _Settings:
     n: int
     dim: int
     unit: float  # the initial largest diameter, in the input's length unit
-    box: float
+    box: float | Frame  # the cube's side, or a container's frame (periodic along some axes only)
+    period: float  # the shortest periodic length (inf: none): the cap of the cutoff (docs/calippso.md §1.4)
+    walls: LPWalls | None  # a container's walls and zero modes (None: the periodic cube)
     cutoff0: float  # l0
     s_bound: float | None  # a fixed bound in units of the current largest diameter (None: the regimes)
     regime_thresholds: tuple[float, float]
@@ -569,6 +608,11 @@ class _Settings:
     schedule: str  # the bounds schedule (schedule.SCHEDULES)
     interior_steps: bool  # intermediate LPs stepped from their interior point (docs §10)
 
+    @property
+    def nodes(self) -> int:
+        """The LP's nodes: the spheres, then a container's walls (docs/containers.md §5)."""
+        return self.n if self.walls is None else self.walls.nodes
+
 
 @dataclass
 class _LP:
@@ -582,11 +626,14 @@ class _LP:
     pj: np.ndarray
     rij: np.ndarray
     sigma2: np.ndarray
+    # Gamma's lower bound: 1, but below 1 where a curved wall's margin asks a sphere touching it for room it does
+    # not have at s = 0 (docs/containers.md §5)
+    inflation_min: float = 1.0
 
     def subset(self, rows: np.ndarray) -> _LP:
         """The same LP over the rows ``rows`` only."""
         return _LP(self.ell, self.s_bound, self.inflation_max, self.regime, self.pi[rows], self.pj[rows],
-                   self.rij[rows], self.sigma2[rows])
+                   self.rij[rows], self.sigma2[rows], self.inflation_min)
 
 
 @dataclass
@@ -606,23 +653,46 @@ class _Tally:
         self.solvers[sol.solver] = self.solvers.get(sol.solver, 0) + 1
 
 
-def _rows(x, dia, box, ell, s_bound, inflation_max, regime=0) -> _LP:
+def _rows(x, dia, cfg: _Settings, ell, s_bound, inflation_max, regime=0, margin: bool = True) -> _LP:
     # only the pairs a step can close (docs §1.4): the same optimum as every pair within l, and in a polydisperse
     # packing a fraction of the rows, since l is set by the largest sphere
     reach = np.minimum(closable_reach(dia, math.sqrt(inflation_max), s_bound, x.shape[1]), ell)
-    pi, pj, rij = cutoff_rows(x, box, reach)
+    pi, pj, rij = cutoff_rows(x, cfg.box, reach)
     sigma2 = (0.5 * (dia[pi] + dia[pj])) ** 2
+    if cfg.walls is not None:  # the sphere-wall rows a step can violate, after each sphere's pair rows
+        wi, wj, wr, ws = cfg.walls.rows(x, dia, math.sqrt(inflation_max), s_bound, margin)
+        pi, pj = np.concatenate([pi, wi]), np.concatenate([pj, wj])
+        rij, sigma2 = np.concatenate([rij, wr]), np.concatenate([sigma2, ws])
+        order = np.lexsort((pj, pi))  # stable: a pair's images keep their order by distance (docs §1.2)
+        pi, pj, rij, sigma2 = pi[order], pj[order], rij[order], sigma2[order]
+        if margin and cfg.walls.container.curved is not None and wi.size:
+            # s = 0 stays feasible: a sphere at the wall with less room than its margin deflates the step a little
+            inflation_min = min(1.0, float(np.min(np.einsum("ij,ij->i", wr, wr) / ws)) * (1.0 - 1e-12))
+            return _LP(ell, s_bound, inflation_max, regime, pi, pj, rij, sigma2, inflation_min)
     return _LP(ell, s_bound, inflation_max, regime, pi, pj, rij, sigma2)
 
 
-def _schedule(x, dia, loop, cfg: _Settings) -> _LP:
-    """Schedule: the cutoff, s bound and Gamma_max from the previous LP (docs §1.3-§1.6), and the LP's rows."""
+def _schedule(x, dia, loop, cfg: _Settings, previous_step: float | None = None) -> _LP:
+    """Schedule: the cutoff, s bound and Gamma_max from the previous LP (docs §1.3-§1.6), and the LP's rows;
+    ``previous_step`` is the previous LP's largest |s_mu| of a stable sphere (absolute; None before the first)."""
     R = 0.5 * float(dia.max())
     ell, sb, inflation_max, regime = step_limits(
-        loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds,
+        loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.period, cfg.regime_thresholds,
         None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit,
         widen=cfg.schedule == "adaptive")
-    return _rows(x, dia, cfg.box, ell, sb, inflation_max, regime)
+    if cfg.walls is not None:  # a curved wall's margin vanishes with the steps (docs/containers.md §5)
+        capped = cfg.walls.capped_bound(sb, previous_step, dia, math.sqrt(inflation_max))
+        if capped < sb:
+            sb = capped
+            inflation_max = ((ell - 2.0 * math.sqrt(cfg.dim) * sb) / (2.0 * R)) ** 2
+        if cfg.walls.container.curved is not None:
+            # a small container: keep R - sqrt(Gamma_max) r >= 2 sqrt(m) s_bound for every sphere, so that the
+            # margin is defined (half the room the largest sphere has at Gamma = 1 bounds the step)
+            wall_r, across = cfg.walls.container.radius, math.sqrt(cfg.walls.across)
+            sb = min(sb, (wall_r - R) / (4.0 * across))
+            inflation_max = min(inflation_max, ((ell - 2.0 * math.sqrt(cfg.dim) * sb) / (2.0 * R)) ** 2,
+                                ((wall_r - 2.0 * across * sb) / R) ** 2)
+    return _rows(x, dia, cfg, ell, sb, inflation_max, regime)
 
 
 def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSolution:
@@ -630,8 +700,8 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     (docs §5.4), else HiGHS, warm-started from the previous basis with a back-off after failures (docs §5.1-§5.3)."""
     sol = None
     if cfg.interior_steps and loop.sqrt_inflation_prev - 1.0 > INTERIOR_STEP_MIN:  # docs §10
-        return solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
-                        inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
+        return solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, s_bound=lp.s_bound, pinned=_pins(loop, cfg),
+                        inflation_bounds=(lp.inflation_min, lp.inflation_max), tolerance=cfg.solver_tolerance,
                         options=cfg.solver_options, iteration=iteration, solver=cfg.solver, threads=cfg.threads,
                         crossover=cfg.crossover, interior=True)
     # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
@@ -640,8 +710,8 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
         t_try = time.perf_counter()
         why: list[str] = []
         keys, rattler, held = loop.predicted
-        sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, keys, rattler, s_bound=lp.s_bound,
-                               pinned=loop.pinned, inflation_bounds=(1.0, lp.inflation_max), why=why,
+        sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, keys, rattler, s_bound=lp.s_bound,
+                               pinned=_pins(loop, cfg), inflation_bounds=(lp.inflation_min, lp.inflation_max), why=why,
                                max_pivots=MAX_PIVOTS if loop.basis is None else None, fixed=held)
         if sol is None:
             tally.lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
@@ -663,8 +733,8 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
     def highs(rows, previous: LPSolution | None) -> LPSolution:
         sub = lp if rows is None else lp.subset(rows)
         cuts = previous is not None and previous.basis is not None
-        sol = solve_lp(sub.rij, sub.sigma2, sub.pi, sub.pj, cfg.n, s_bound=lp.s_bound, pinned=loop.pinned,
-                       inflation_bounds=(1.0, lp.inflation_max), tolerance=cfg.solver_tolerance,
+        sol = solve_lp(sub.rij, sub.sigma2, sub.pi, sub.pj, cfg.nodes, s_bound=lp.s_bound, pinned=_pins(loop, cfg),
+                       inflation_bounds=(lp.inflation_min, lp.inflation_max), tolerance=cfg.solver_tolerance,
                        options=cfg.solver_options, iteration=iteration, warm=previous.basis if cuts else warm,
                        solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts)
         if previous is None:
@@ -693,9 +763,11 @@ def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
     does one that is isostatic with the components held at the s bound (docs §5.4). Returns ``(contact mask,
     rattler mask, n_contacts, isostatic, gained, lost)``, the last two the contacts among non-rattlers gained and
     lost since the previous LP (-1 each for the first)."""
-    contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.n,
-                                                                 cfg.dim, cfg.zero_force)
-    network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.n)
+    pins = _pins(loop, cfg)
+    contact, rattler, n_contacts, isostatic, _ = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals,
+                                                                 cfg.nodes, cfg.dim, cfg.zero_force,
+                                                                 None if cfg.walls is None else pins)
+    network = network_prediction(contact, rattler, lp.pi, lp.pj, cfg.nodes)
     loop.predicted = None
     if sol.method_name == "interior":
         # an interior point's duals are no vertex's: nothing to predict from, and no basis to warm-start from
@@ -703,8 +775,8 @@ def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
     elif cfg.active_set and isostatic:
         loop.predicted = (*network, None)
     elif cfg.active_set:
-        loop.predicted = vertex_prediction(contact, sol.duals, sol.s, lp.s_bound, lp.rij, lp.pi, lp.pj, cfg.n,
-                                           loop.pinned)
+        loop.predicted = vertex_prediction(contact, sol.duals, sol.s, lp.s_bound, lp.rij, lp.pi, lp.pj, cfg.nodes,
+                                           pins)
     gained = lost = -1
     if loop.contacts is not None:
         gained = int(np.setdiff1d(network[0], loop.contacts, assume_unique=True).size)
@@ -713,14 +785,19 @@ def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
     return contact, rattler, n_contacts, isostatic, gained, lost
 
 
-def _step(x, dia, sol: LPSolution, box: float, iteration: int):
-    """Step: move, inflate, and make sure round-off in the solver left no overlap (docs §1.1, §1.8).
+def _step(x, dia, sol: LPSolution, lp: _LP, cfg: _Settings, iteration: int):
+    """Step: move, inflate, and make sure round-off in the solver left no overlap, nor a sphere in a wall (docs §1.1,
+    §1.8; docs/containers.md §5).
 
     Returns ``(positions, diameters, sqrt(Gamma) as applied, overlap correction)``."""
-    sqrt_inflation = math.sqrt(max(sol.inflation, 1.0))
-    x = np.mod(x + sol.s, box)
+    sqrt_inflation = math.sqrt(max(sol.inflation, lp.inflation_min))
     dia = dia * sqrt_inflation
-    h_min = _closest_h(x, dia, box)
+    if cfg.walls is None:
+        x = np.mod(x + sol.s, cfg.box)
+        h_min = _closest_h(x, dia, cfg.box)
+    else:  # the wall nodes' rows of s are 0
+        x = cfg.walls.container.wrap(x + sol.s[:cfg.n])
+        h_min = min(_closest_h(x, dia, cfg.box), cfg.walls.distance_ratio(x, dia))
     correction = 0.0
     if h_min < 1.0:
         correction = 1.0 - h_min
@@ -742,14 +819,23 @@ def _largest_displacements(s, rattler, dia) -> tuple[float, float]:
             float(np.max(np.abs(s))) / float(dia.max()))
 
 
-def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: float) -> None:
+def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: float, cfg: _Settings, x) -> None:
     """What the next iteration's schedule needs from this one: a stable particle at its bound (docs §1.5), the
-    bound, sqrt(Gamma), and the pinned particle (docs §1.7)."""
+    bound, sqrt(Gamma), and the pinned particle (docs §1.7); in a container the gauge pins too, chosen again among
+    non-rattlers when one of their spheres turned out a rattler (docs/containers.md §5)."""
     loop.bound_hit = at_bound > 0
     loop.prev_s_bound = lp.s_bound
     loop.sqrt_inflation_prev = sqrt_inflation
-    if rattler[loop.pinned] and np.any(~rattler):
-        loop.pinned = repin(contact, lp.pi, lp.pj, rattler, len(rattler))
+    if cfg.walls is None:
+        if rattler[loop.pinned] and np.any(~rattler):
+            loop.pinned = repin(contact, lp.pi, lp.pj, rattler, len(rattler))
+        return
+    sphere_rattler = rattler[:cfg.n]
+    pinned = np.union1d(_pins(loop, cfg).pinned_spheres(), [loop.pinned])
+    if np.any(sphere_rattler[pinned]) and np.any(~sphere_rattler):
+        if sphere_rattler[loop.pinned]:
+            loop.pinned = repin(contact, lp.pi, lp.pj, rattler, len(rattler), cfg.n)
+        loop.gauge = cfg.walls.gauge(x, loop.pinned, sphere_rattler).gauge
 
 
 def _converged(sqrt_inflation: float, max_s: float, inflation_tolerance: float,
@@ -765,18 +851,19 @@ def _force_lp(run: _Run, cfg: _Settings, fine_tune: bool):
     loop, tally, iteration = run.loop, run.tally, run.iteration
     R = 0.5 * float(run.dia.max())
     # the final regime's rows: a superset of the contacts, which are all this LP needs
-    ell, sb, inflation_max, _ = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.box, cfg.regime_thresholds)
-    lp = _rows(run.x, run.dia, cfg.box, ell, sb, inflation_max)
+    ell, sb, inflation_max, _ = cutoff_and_bound(1.0, R, cfg.cutoff0, cfg.dim, cfg.period, cfg.regime_thresholds)
+    # no margin on a curved wall's rows: this LP takes no step, and its tangent rows are the wall's to first order
+    lp = _rows(run.x, run.dia, cfg, ell, sb, inflation_max, margin=False)
     cpu0 = time.process_time()
     if fine_tune:
         try:
             fine = None
             if loop.predicted is not None and loop.predicted[2] is None:  # an isostatic network, no bound held
-                fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, *loop.predicted[:2], s_bound=R,
-                                        pinned=loop.pinned, inflation_bounds=(-math.inf, math.inf),
+                fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, *loop.predicted[:2], s_bound=R,
+                                        pinned=_pins(loop, cfg), inflation_bounds=(-math.inf, math.inf),
                                         max_pivots=MAX_PIVOTS if loop.basis is None else None)
             if fine is None:
-                fine = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.n, s_bound=R, pinned=loop.pinned,
+                fine = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, s_bound=R, pinned=_pins(loop, cfg),
                                 inflation_bounds=(-math.inf, math.inf), tolerance=cfg.solver_tolerance,
                                 options=cfg.solver_options, iteration=iteration + 1, warm=loop.basis,
                                 solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover)
@@ -811,9 +898,12 @@ class _LoopState:
     warm_failures: int = 0  # failed warm starts in a row
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
     contacts: np.ndarray | None = None  # contact keys among non-rattlers of the last LP (history's contact_changes)
+    gauge: np.ndarray | None = None  # a container's gauge pins, flat s columns (docs/containers.md §5)
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
+        if self.gauge is not None:
+            out.update(gauge=self.gauge)
         if self.predicted is not None:
             out.update(predicted_keys=self.predicted[0], predicted_rattlers=self.predicted[1])
             if self.predicted[2] is not None:
@@ -840,7 +930,7 @@ class _LoopState:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
                    bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
-                   arrays.get("contact_keys"))
+                   arrays.get("contact_keys"), arrays.get("gauge"))
 
 
 @dataclass
@@ -866,8 +956,10 @@ class _Run:
             initial_sqrt_inflation = REFERENCE_INITIAL_SQRT_INFLATION
         elif initial_sqrt_inflation is None:
             initial_sqrt_inflation = 1.0 + nearest_gap_median(x, dia, cfg.box)
-        return cls(x, dia, _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation),
-                                      pinned=initial_pin(x, dia, cfg.box)))
+        loop = _LoopState(sqrt_inflation_prev=float(initial_sqrt_inflation), pinned=initial_pin(x, dia, cfg.box))
+        if cfg.walls is not None:
+            loop.gauge = cfg.walls.gauge(x, loop.pinned).gauge
+        return cls(x, dia, loop)
 
     def resume(self, ckpt: Checkpoint) -> None:
         """Continue from the checkpoint's state, if it has one (docs §7)."""
@@ -884,8 +976,19 @@ class _Run:
                   self.history.as_arrays())
 
 
-def _phi(dia, box, dim) -> float:
-    return float(np.sum(math.pi ** (dim / 2) / math.gamma(dim / 2 + 1) * (0.5 * dia) ** dim) / box**dim)
+def _phi(dia, cfg: _Settings) -> float:
+    dim = cfg.dim
+    volume = cfg.box**dim if cfg.walls is None else cfg.walls.container.volume
+    return float(np.sum(math.pi ** (dim / 2) / math.gamma(dim / 2 + 1) * (0.5 * dia) ** dim) / volume)
+
+
+def _pins(loop, cfg: _Settings):
+    """The LP's fixed columns: the pinned sphere in the periodic cube (docs §1.7); in a container the gauge pins and
+    the wall nodes (:class:`~.constraints.Pins`, docs/containers.md §5)."""
+    if cfg.walls is None:
+        return loop.pinned
+    walls = np.arange(cfg.n * cfg.dim, cfg.nodes * cfg.dim, dtype=np.int64)
+    return Pins(np.concatenate([loop.gauge, walls]), cfg.n, cfg.dim)
 
 
 def _closest_h(x, dia, box) -> float:
