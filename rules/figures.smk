@@ -39,3 +39,36 @@ rule render_fig1:
     localrule: True
     shell:
         "spherejam render {input} {params.options} -o {output.png} -o {output.pdf} > {log} 2>&1"
+
+
+# A packed column: the jammed packing of the first cylinder of `containers`, drawn with OVITO like Fig. 1; part of
+# `all` with figures.render_column: true.
+rule render_column:
+    conda:
+        "../envs/spherejam.yaml"
+    input:
+        PATHS.packing("jammed", EXP.column_run().key) if EXP.column_run() else [],
+    output:
+        png=report(PATHS.figure("png", "column"), caption="../report/column.rst", category="Figures"),
+        pdf=PATHS.figure("pdf", "column"),
+    log:
+        PATHS.figure_log("column"),
+    localrule: True
+    shell:
+        "spherejam render {input} -o {output.png} -o {output.pdf} > {log} 2>&1"
+
+
+# One jammed packing as an interactive page (spherejam view: rotate, zoom, slice; one self-contained HTML file),
+# linked from the report; per cell with figures.view_pages: true (Experiment.view_runs).
+rule view_page:
+    conda:
+        "../envs/spherejam.yaml"
+    input:
+        PATHS.packing("jammed"),
+    output:
+        report(PATHS.view(), caption="../report/view.rst", category="Packings (interactive)"),
+    log:
+        PATHS.log("view"),
+    localrule: True
+    shell:
+        "spherejam view {input} -o {output} > {log} 2>&1"
