@@ -91,6 +91,7 @@ def containers(ds):
                 if math.isfinite(half):
                     ax.axhspan(mean - half, mean + half, color=colours[d], alpha=0.08, lw=0)
     drawn = False
+    ours_phi, ours_excess = [v for v in bulk_phi.values() if math.isfinite(v)], [0.0]
     for k in cylinders:
         for d in dists:
             for p in ("ls", "fb"):
@@ -103,11 +104,19 @@ def containers(ds):
                 m, h = _mean_ci(phi_j[sel])
                 ax.errorbar([x.mean()], [m], yerr=[h if math.isfinite(h) else 0.0], fmt=PROTOCOL_MARKERS[p],
                             color=colours[d], mec="k", mew=0.6, ms=7, capsize=3)
+                ours_phi += phi_j[sel].tolist()
+                if math.isfinite(bulk_phi[d, p]):
+                    ours_excess.append(bulk_phi[d, p] - m)
                 if math.isfinite(bulk_phi[d, p]):  # excess porosity: eps - eps_bulk = phi_bulk - phi
                     ax2.errorbar([x.mean()], [bulk_phi[d, p] - m], yerr=[h if math.isfinite(h) else 0.0],
                                  fmt=PROTOCOL_MARKERS[p], color=colours[d], mec="k", mew=0.6, ms=7, capsize=3,
                                  label=f"ours, {p.upper()} + MLS, {d}")
-    grid = np.linspace(2.0, x_hi, 200)
+    x_lo = 2.5
+    grid = np.linspace(x_lo, x_hi, 200)
+    verified = [n for n, c in CORRELATIONS.items() if c.kind == "mean" and c.verified]
+    reference = [1.0 - mean_porosity(n, grid[grid > CORRELATIONS[n].ratio_range[0]]) for n in verified]
+    reference_excess = [correlation_excess(n, grid[grid > CORRELATIONS[n].ratio_range[0]]) for n in verified]
+    dashes = iter(("--", ":", "-."))
     for name, c in CORRELATIONS.items():
         if c.kind != "mean":
             continue
@@ -116,13 +125,19 @@ def containers(ds):
         eps = mean_porosity(name, r, allow_unverified=True)
         excess = correlation_excess(name, r, allow_unverified=True)
         label = c.reference.split(",")[0].split(" (")[0] + " " + c.reference.split("(")[-1].split(")")[0][-4:]
-        style = {"color": "k", "lw": 1.4} if c.verified else {"color": "0.55", "lw": 1.0, "ls": "--"}
+        style = {"color": "k", "lw": 1.4} if c.verified else {"color": "0.5", "lw": 1.0, "ls": next(dashes)}
         tag = "" if c.verified else " (unverified formula)"
         ax.plot(r, 1.0 - eps, **style, label=f"{label}: poured beds{tag}")
         ax2.plot(r, excess, **style, label=f"{label}{tag}")
     if not drawn:
         ax.text(0.5, 0.5, "no cylinder with completed MLS runs", ha="center", va="center", transform=ax.transAxes,
                 color="0.5")
+    # the axes fit our packings and the verified correlations (an unverified one may run off them at small D/d)
+    lows = [min(ours_phi, default=0.6)] + [float(r.min()) for r in reference]
+    highs = [max(ours_phi, default=0.6)] + [float(r.max()) for r in reference]
+    ax.set_ylim(max(min(lows) - 0.02, 0.0), min(max(highs) + 0.02, 0.75))
+    ax2.set_ylim(min(min(ours_excess), 0.0) - 0.02,
+                 max([max(ours_excess)] + [float(r.max()) for r in reference_excess]) + 0.03)
     ax.set_ylabel("closest jamming density φ$_J$ (1 − ε)")
     ax.set_title("Packed columns: φ$_J$ against D/⟨d⟩ (points: packings; large: mean ± 95 % CI)", fontsize=9)
     ax.legend(fontsize=6.5, loc="lower right")
@@ -130,7 +145,7 @@ def containers(ds):
     ax2.set_xlabel("D/⟨d⟩ (achieved, jammed packing)")
     ax2.set_ylabel("excess porosity ε − ε$_{bulk}$")
     ax2.axhline(0.0, color="0.6", lw=0.6)
-    ax2.set_xlim(2.0, x_hi)
+    ax2.set_xlim(x_lo, x_hi)
     ax2.legend(fontsize=6.5, loc="upper right")
     ax2.grid(alpha=0.3)
     fig.text(0.01, 0.005, "each with its own bulk: ours the periodic cube of the same protocol, a correlation its "
@@ -170,7 +185,7 @@ def profiles(ds):
         ax.plot(distance[keep], mean, color="tab:blue", lw=1.2,
                 label=f"ours: mean of {int(sel.sum())} jammed packings")
         if math.isfinite(eps_bulk):
-            ax.axhline(eps_bulk, color="0.3", lw=0.8, ls=":", label=f"bulk ε = {eps_bulk:.3f} (periodic cube)")
+            ax.axhline(eps_bulk, color="0.3", lw=0.8, ls="-.", label=f"bulk ε = {eps_bulk:.3f} (periodic cube)")
         ratio = float(np.nanmean(size[sel]))
         if specs[k].startswith("cylinder") and math.isfinite(ratio):
             for name, c in CORRELATIONS.items():
@@ -180,7 +195,8 @@ def profiles(ds):
                     eps = radial_porosity(name, distance[keep], ratio, allow_unverified=True)
                 except InputError:
                     continue
-                style = {"color": "k", "lw": 1.0} if c.verified else {"color": "0.55", "lw": 0.9, "ls": "--"}
+                style = ({"color": "k", "lw": 1.0} if c.verified else
+                         {"color": "0.5", "lw": 0.9, "ls": "--" if name == "de_klerk" else ":"})
                 ax.plot(distance[keep], eps, **style,
                         label=f"{c.reference.split(',')[0]}{'' if c.verified else ' (unverified formula)'}")
         where = "radial, from the wall" if specs[k].startswith(("cylinder", "sphere")) else "from the nearer wall"

@@ -594,8 +594,9 @@ def draw(name: str, ds):
     if keys:
         ref = reference_packings(ds)
         fig = draw(name, ref.drop_vars([v for v in ref.variables if v.startswith(("container", "wall_", "profile_"))]))
-        fig.text(0.005, 0.003, f"container {str(ref['container'].values[0])} ({str(ref['container_spec'].values[0])}) "
-                 f"of {', '.join(keys)}", ha="left", va="bottom", fontsize=7, color="0.35")
+        fig.text(0.005, 0.003, f"packings in {str(ref['container'].values[0])} "
+                 f"({str(ref['container_spec'].values[0])}) only, of the containers {', '.join(keys)} (the others: "
+                 "figures containers and profiles, and the tables)", ha="left", va="bottom", fontsize=7, color="0.35")
         return fig
     sizes = sizes_in(ds)
     if name != "scaling" and len(sizes) > 1:
