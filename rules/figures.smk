@@ -1,4 +1,5 @@
-# Figures 2-7 of the paper, plus structure and contact-force figures, each rebuildable alone:
+# Figures 2-7 of the paper, plus structure and contact-force figures (and with containers, the figures containers and
+# profiles: docs/containers.md §9), each rebuildable alone:
 #   snakemake --cores 2 results/figures/fig4.pdf
 # Fig. 1 (a rendered packing) needs OVITO (pip install 'spherejam[render]'); it is part of `all` only with
 # figures.render_fig1: true, and can always be asked for by name: snakemake --cores 1 results/figures/fig1.png
