@@ -237,6 +237,9 @@ def print_summary(table4: str | Path, table3: str | Path, out=None) -> None:
     out = out or sys.stdout
     t4, t3 = pd.read_csv(table4), pd.read_csv(table3)
     key = "distribution" if "distribution" in t4 else "sigma"
+    bulk = {}  # per distribution: the periodic cube's row, beside which a container's is printed
+    if "container" in t4:
+        bulk = {r[key]: r for _, r in t4[t4.container_spec == "periodic"].iterrows()}
     for (_, r4), (_, r3) in zip(t4.iterrows(), t3.iterrows()):
         n = f"n = {int(r3.ls_n_fast)} LS + {int(r3.fb_n_fast)} FB fast packings"
         label = r4[key] if key == "distribution" else f"sigma = {r4.sigma:g}"
@@ -244,6 +247,13 @@ def print_summary(table4: str | Path, table3: str | Path, out=None) -> None:
         print(f"{where}{label} ({r4.psd if 'psd' in r4 else ''})", file=out)
         print(f"  φ_LT  = {_interval(r4.phi_LT, r4.phi_LT_half_width, n)}", file=out)
         print(f"  φ_RCP = {_interval(r4.phi_RCP, r4.phi_RCP_half_width, n)}", file=out)
+        if "container" in r4 and r4.container_spec != "periodic":  # the models are of the bulk
+            ref = bulk.get(r4[key])
+            if ref is not None:
+                diffs = [r4[c] - ref[c] for c in ("phi_LT", "phi_RCP")]
+                text = [f"{x:+.4f}" if math.isfinite(x) else "not estimable" for x in diffs]
+                print(f"  container − bulk ({ref.container}): φ_LT {text[0]}, φ_RCP {text[1]}", file=out)
+            continue
         models = "   ".join(f"{label_}: {r4[f'model_{m}']:.4f} (ours − model {r4[f'phi_RCP_minus_{m}']:+.4f})"
                             for m, label_ in MODELS.items())
         print(f"  models: {models}", file=out)

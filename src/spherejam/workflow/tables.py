@@ -600,12 +600,18 @@ def compute_tables(ds) -> dict[str, pd.DataFrame]:
         tables = _tables_in_one_container(sub)
         for name, t in tables.items():
             t = t.copy()
-            if spec != "periodic":  # the paper's values are of the bulk
+            if spec != "periodic":  # the paper's values, and the conventional phi_GCP of equal spheres, are the bulk's
                 for col in t.columns:
                     if "paper" in col and t[col].dtype.kind == "f":
                         t[col] = np.nan
                     elif col.endswith("_paper_derived"):
                         t[col] = False
+                if "phi_GCP_source" in t.columns:
+                    conventional = t["phi_GCP_source"] == "paper"
+                    t.loc[conventional, ["phi_GCP", "phi_GCP_half_width"]] = np.nan
+                    t.loc[conventional, "phi_GCP_source"] = "none: the conventional 0.65 is the bulk's"
+                    if "gcp_below_rcp" in t.columns:
+                        t.loc[conventional, "gcp_below_rcp"] = False
             t.insert(0, "container", key)
             t.insert(1, "container_spec", spec)
             tables[name] = t
