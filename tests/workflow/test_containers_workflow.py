@@ -200,3 +200,46 @@ def test_tiny_container_run(container_run):
         assert (container_run / "figures" / f"{name}.png").stat().st_size > 10_000
     pages = sorted((container_run / "views").rglob("*.html"))
     assert [p.relative_to(container_run / "views").parts[0] for p in pages] == ["bulk", "col"]
+
+
+def _two_containers():
+    """The synthetic dataset of test_tables twice: in the periodic cube and, 0.02 looser, in a cylinder."""
+    import xarray as xr
+
+    from test_tables import synthetic_dataset
+
+    bulk, col = synthetic_dataset(), synthetic_dataset()
+    col["phi_J"] = col["phi_J"] - 0.02
+    n = bulk.sizes["packing"]
+    parts = []
+    for ds, key, spec, size in ((bulk, "bulk", "periodic", np.nan), (col, "col", "cylinder:diameter=7.0", 7.1)):
+        profile = np.tile(np.linspace(1.0, 0.4, 20), (n, 1)) if key == "col" else np.full((n, 20), np.nan)
+        parts.append(ds.assign_coords(container=("packing", np.full(n, key)),
+                                      container_spec=("packing", np.full(n, spec)),
+                                      container_shape=("packing", np.full(n, spec.partition(":")[0])),
+                                      wall_distance=("wall_distance", (np.arange(20) + 0.5) * 0.05))
+                     .assign(container_size=("packing", np.full(n, size)),
+                             profile_porosity=(("packing", "wall_distance"), profile)))
+    return xr.concat(parts, dim="packing")
+
+
+def test_tables_per_container_and_the_container_figures(tmp_path):
+    from spherejam.workflow import figures
+    from spherejam.workflow.tables import compute_tables
+
+    ds = _two_containers()
+    t = compute_tables(ds)
+    t4 = t["table4"]
+    assert t4.container.tolist() == ["bulk", "bulk", "col", "col"]
+    bulk = t4[t4.container == "bulk"].set_index("sigma")
+    col = t4[t4.container == "col"].set_index("sigma")
+    # each container's rows from its own packings: the cylinder's phi_J are 0.02 lower, so are its band edges
+    assert col.loc[0.3, "phi_RCP"] == pytest.approx(bulk.loc[0.3, "phi_RCP"] - 0.02, abs=1e-12)
+    assert np.isfinite(bulk.loc[0.0, "phi_RCP_paper"]) and np.isnan(col.loc[0.0, "phi_RCP_paper"])
+    assert bulk.loc[0.0, "phi_GCP"] == 0.65 and np.isnan(col.loc[0.0, "phi_GCP"])  # 0.65 is the bulk's
+    # the paper's figures show the bulk alone; the container figures draw
+    only_bulk = figures.reference_packings(ds)
+    assert set(only_bulk.container.values.tolist()) == {"bulk"}
+    for name in ("containers", "profiles", "fig2"):
+        out = figures.save_figure(figures.draw(name, ds), tmp_path / name)
+        assert all(p.stat().st_size > 10_000 for p in out)

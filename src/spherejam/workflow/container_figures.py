@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from .dataset import container_keys
+from .dataset import container_keys, with_distributions
 from .tables import completed_phi_J
 
 #: Figures of an experiment with containers (part of ``all`` only when it has a container other than the cube).
@@ -64,6 +64,7 @@ def containers(ds):
 
     if not container_keys(ds):
         return _no_containers("containers")
+    ds = with_distributions(ds)
     plt = _plt()
     specs = _specs(ds)
     phi_j = completed_phi_J(ds)
