@@ -127,15 +127,17 @@ def figure(packing: Packing, size: tuple[int, int] = (800, 800), sigma: float | 
         if not packing.container.is_periodic_cube:
             achieved = ", ".join(f"{k} = {v:.3g}" for k, v in
                                  packing.container.in_diameters(packing.mean_diameter).items())
-            title += f"\n{packing.container.shape}: {achieved} mean diameters"
+            title += f"\n{packing.container.shape}: {achieved} ⟨d⟩"
     dpi = 150
     h, w = image.shape[0] / dpi, image.shape[1] / dpi  # inches at the figure's resolution
-    fig = plt.figure(figsize=(w + 1.2, h + 0.6), dpi=dpi)
-    ax = fig.add_axes((0.0, 0.0, w / (w + 1.2), h / (h + 0.6)))
+    pad = max(0.0, 4.4 - (w + 1.2))  # a tall, narrow column: room for the title on both sides
+    width = w + 1.2 + pad
+    fig = plt.figure(figsize=(width, h + 0.6), dpi=dpi)
+    ax = fig.add_axes((0.5 * pad / width, 0.0, w / width, h / (h + 0.6)))
     ax.imshow(image)
     ax.set_axis_off()
     _, (lo, hi) = diameter_colours(d)
-    cax = fig.add_axes(((w + 0.15) / (w + 1.2), 0.15, 0.15 / (w + 1.2), 0.6))
+    cax = fig.add_axes(((0.5 * pad + w + 0.15) / width, 0.15, 0.15 / width, 0.6))
     fig.colorbar(plt.cm.ScalarMappable(Normalize(lo, hi), "viridis"), cax=cax, label="diameter D")
     fig.suptitle(title, fontsize=9)
     return fig
