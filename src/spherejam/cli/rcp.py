@@ -202,7 +202,8 @@ def _describe_container(exp, entry) -> None:
     n = exp.size(run)
     c = build(entry.model(), n, model.draw(model.fixed_n or n, np.random.default_rng(0)))
     sizes = ", ".join(f"{k} = {v:.3g}" for k, v in c.in_diameters(1.0).items())
-    print(f"  {entry.key}: N = {n}, {sizes} mean diameters (sized for phi = {PHI_ESTIMATE}; the achieved D/<d> is reported)")
+    print(f"  {entry.key}: N = {n}, {sizes} mean diameters (sized for phi = {PHI_ESTIMATE}; the achieved D/<d> "
+          "is reported)")
     short = [k for k in range(c.dim) if c.periodic[k] and c.lengths[k] < SHORT_PERIOD]
     if short:
         print(f"  {entry.key}: warning: periodic along {'xyz'[short[0]]} over only {c.lengths[short[0]]:.3g} mean "
