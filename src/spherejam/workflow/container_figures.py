@@ -93,6 +93,7 @@ def containers(ds):
                     ax.axhspan(mean - half, mean + half, color=colours[d], alpha=0.08, lw=0)
     drawn = False
     ours_phi, ours_excess = [v for v in bulk_phi.values() if math.isfinite(v)], [0.0]
+    labelled: set[tuple[str, str]] = set()  # one legend entry per distribution and protocol
     for k in cylinders:
         for d in dists:
             for p in ("ls", "fb"):
@@ -111,7 +112,8 @@ def containers(ds):
                 if math.isfinite(bulk_phi[d, p]):  # excess porosity: eps - eps_bulk = phi_bulk - phi
                     ax2.errorbar([x.mean()], [bulk_phi[d, p] - m], yerr=[h if math.isfinite(h) else 0.0],
                                  fmt=PROTOCOL_MARKERS[p], color=colours[d], mec="k", mew=0.6, ms=7, capsize=3,
-                                 label=f"ours, {p.upper()} + MLS, {d}")
+                                 label=None if (d, p) in labelled else f"ours, {p.upper()} + MLS, {d}")
+                    labelled.add((d, p))
     x_lo = 2.5
     grid = np.linspace(x_lo, x_hi, 200)
     verified = [n for n, c in CORRELATIONS.items() if c.kind == "mean" and c.verified]
