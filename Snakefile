@@ -33,4 +33,4 @@ rule all:
         PATHS.dataset,
         PATHS.tables(),
         PATHS.figures(EXP.figure_names),
-        PATHS.figures(["fig1"]) if config["figures"]["render_fig1"] else [],
+        EXP.extra_figures(),  # Fig. 1, the packed column, the interactive pages: as the config's `figures` switches

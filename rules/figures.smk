@@ -1,4 +1,5 @@
-# Figures 2-7 of the paper, plus structure and contact-force figures, each rebuildable alone:
+# Figures 2-7 of the paper, plus structure and contact-force figures (and with containers, the figures containers and
+# profiles: docs/containers.md §9), each rebuildable alone:
 #   snakemake --cores 2 results/figures/fig4.pdf
 # Fig. 1 (a rendered packing) needs OVITO (pip install 'spherejam[render]'); it is part of `all` only with
 # figures.render_fig1: true, and can always be asked for by name: snakemake --cores 1 results/figures/fig1.png
@@ -39,3 +40,36 @@ rule render_fig1:
     localrule: True
     shell:
         "spherejam render {input} {params.options} -o {output.png} -o {output.pdf} > {log} 2>&1"
+
+
+# A packed column: the jammed packing of the first cylinder of `containers`, drawn with OVITO like Fig. 1; part of
+# `all` with figures.render_column: true.
+rule render_column:
+    conda:
+        "../envs/spherejam.yaml"
+    input:
+        PATHS.packing("jammed", EXP.column_run().key) if EXP.column_run() else [],
+    output:
+        png=report(PATHS.figure("png", "column"), caption="../report/column.rst", category="Figures"),
+        pdf=PATHS.figure("pdf", "column"),
+    log:
+        PATHS.figure_log("column"),
+    localrule: True
+    shell:
+        "spherejam render {input} -o {output.png} -o {output.pdf} > {log} 2>&1"
+
+
+# One jammed packing as an interactive page (spherejam view: rotate, zoom, slice; one self-contained HTML file),
+# linked from the report; per cell with figures.view_pages: true (Experiment.view_runs).
+rule view_page:
+    conda:
+        "../envs/spherejam.yaml"
+    input:
+        PATHS.packing("jammed"),
+    output:
+        report(PATHS.view(), caption="../report/view.rst", category="Packings (interactive)"),
+    log:
+        PATHS.log("view"),
+    localrule: True
+    shell:
+        "spherejam view {input} -o {output} > {log} 2>&1"

@@ -6,6 +6,10 @@ the distributions and sizes given, writes it into the results folder, prints the
 phi_RCP with their intervals beside the three published models. The workflow writes the usual dataset, tables and
 Fig. 5; running the command again resumes where it stopped. It runs in the current folder (Snakemake's
 ``.snakemake/`` goes there; relative ``table:`` files are read from there).
+
+With ``--container SPEC`` (docs/containers.md) the same experiment runs twice, in the container and in the periodic
+cube (``bulk``), as the workflow's container axis: phi_LT and phi_RCP are printed in both, with their intervals, and
+the figures of φ against D/d and of the porosity profile are drawn too.
 """
 
 from __future__ import annotations
@@ -38,6 +42,9 @@ def register(sub) -> None:
     p.add_argument("--replicas", type=FIELDS["replicas"].arg, default=None,
                    help="packings per rate and protocol (template: 2, i.e. 10 LS + 10 FB per distribution)")
     p.add_argument("--seed", type=seed_int, default=None, help="master seed (template: 2014)")
+    p.add_argument("--container", metavar="SPEC", action="append", default=None,
+                   help="also run the experiment in this container (docs/containers.md), e.g. cylinder:diameter=10; "
+                        "phi_LT and phi_RCP are printed in it and in bulk (the periodic cube); may be repeated")
     p.add_argument("-o", "--results", type=Path, default=Path("results") / "psd", help="results folder")
     p.add_argument("--cores", type=FIELDS["calippso.threads"].arg, default=2, help="cores for the workflow (2)")
     p.add_argument("--workflow", type=Path, default=None,
@@ -94,7 +101,26 @@ def build_config(args) -> dict:
     for key in ("n", "replicas", "seed"):
         if getattr(args, key) is not None:
             config[key] = getattr(args, key)
+    if getattr(args, "container", None):
+        config["containers"] = named_containers(args.container)
     return config
+
+
+def named_containers(specs: list[str]) -> dict[str, str]:
+    """``{bulk: periodic, <name>: spec, ...}`` for the ``--container`` specs, each named after its spec
+    (``cylinder-diameter-10``); a bad spec is one line naming it."""
+    from ..core.container import parse
+
+    out = {"bulk": "periodic"}
+    for spec in specs:
+        text = parse(spec, "--container").text
+        if text == "periodic":
+            continue  # the bulk is always there
+        name = re.sub(r"[^A-Za-z0-9]+", "-", text.replace(".0,", ",").removesuffix(".0")).strip("-")
+        if name in out:
+            raise InputError(f"--container={spec!r}: given twice")
+        out[name] = text
+    return out
 
 
 def _rcp(args) -> int:
@@ -111,9 +137,15 @@ def _rcp(args) -> int:
     workflow = workflow_folder(args)
     validate_config(config, workflow / "config" / "schema.yaml")
     exp = Experiment(config)
-    print(f"spherejam rcp: N = {exp.largest_n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions x "
-          f"{len(exp.runs()) // max(len(exp.distributions), 1)} packings: fast LS and FB, each then MLS and "
+    cells = len(exp.distributions) * len(exp.container_keys)
+    where = (f" in {len(exp.containers)} containers ({', '.join(f'{c.key}: {c.spec}' for c in exp.containers)})"
+             if exp.has_containers else "")
+    print(f"spherejam rcp: N = {exp.largest_n}, {len(exp.runs())} packings ({len(exp.distributions)} distributions"
+          f"{where}, {len(exp.runs()) // max(cells, 1)} packings each: fast LS and FB, each then MLS and "
           f"CALiPPSO), results in {exp.results}")
+    for c in exp.containers:
+        if not c.is_periodic_cube:
+            _describe_container(exp, c)
     print("cost estimate (the cost model, docs/cluster.md):")
     print_plan(config)
     cpu_h = sum(r["cpu_hours"] for table in plan(config).values() for r in table.values())
@@ -127,6 +159,8 @@ def _rcp(args) -> int:
     with atomic_output(cfg_path, ".yaml") as tmp:
         Path(tmp).write_text(yaml.safe_dump(config, sort_keys=False))
     targets = [exp.paths.dataset, *exp.paths.tables(["csv", "md"]), exp.paths.figure("png", "fig5")]
+    if exp.has_containers:
+        targets += [exp.paths.figure("png", name) for name in ("containers", "profiles")]
     log = exp.results / "logs" / "rcp-snakemake.log"
     log.parent.mkdir(parents=True, exist_ok=True)
     snakemake, env = snakemake_command()
@@ -147,6 +181,31 @@ def _rcp(args) -> int:
         raise SpherejamError(f"the workflow failed (exit {code}); see {log} and the job logs in {exp.results}/logs")
     print_summary(exp.paths.table("table4", "csv"), exp.paths.table("table3", "csv"))
     return 0
+
+
+#: A periodic length (mean diameters) below which a container's periodic images lie close enough to order it.
+SHORT_PERIOD = 5.0
+
+
+def _describe_container(exp, entry) -> None:
+    """The container's lengths at the experiment's N before jamming (the achieved ones are in the dataset), and a
+    warning for a periodic length so short that a sphere meets its own images a few diameters away."""
+    import numpy as np
+
+    from ..core.container import PHI_ESTIMATE, build
+
+    d = exp.distributions[0]
+    run = next(r for r in exp.runs() if r.container == entry.key and r.dist == d.key)
+    model = d.model()
+    n = exp.size(run)
+    c = build(entry.model(), n, model.draw(model.fixed_n or n, np.random.default_rng(0)))
+    sizes = ", ".join(f"{k} = {v:.3g}" for k, v in c.in_diameters(1.0).items())
+    print(f"  {entry.key}: N = {n}, {sizes} mean diameters (sized for phi = {PHI_ESTIMATE}; the achieved D/<d> "
+          "is reported)")
+    short = [k for k in range(c.dim) if c.periodic[k] and c.lengths[k] < SHORT_PERIOD]
+    if short:
+        print(f"  {entry.key}: warning: periodic along {'xyz'[short[0]]} over only {c.lengths[short[0]]:.3g} mean "
+              "diameters; give a larger --n (or the container's length) for a longer column")
 
 
 def failed_jobs(log: Path) -> list[str]:
@@ -177,12 +236,23 @@ def print_summary(table4: str | Path, table3: str | Path, out=None) -> None:
     out = out or sys.stdout
     t4, t3 = pd.read_csv(table4), pd.read_csv(table3)
     key = "distribution" if "distribution" in t4 else "sigma"
+    bulk = {}  # per distribution: the periodic cube's row, beside which a container's is printed
+    if "container" in t4:
+        bulk = {r[key]: r for _, r in t4[t4.container_spec == "periodic"].iterrows()}
     for (_, r4), (_, r3) in zip(t4.iterrows(), t3.iterrows()):
         n = f"n = {int(r3.ls_n_fast)} LS + {int(r3.fb_n_fast)} FB fast packings"
         label = r4[key] if key == "distribution" else f"sigma = {r4.sigma:g}"
-        print(f"{label} ({r4.psd if 'psd' in r4 else ''})", file=out)
+        where = f"in {r4.container} ({r4.container_spec}): " if "container" in r4 else ""
+        print(f"{where}{label} ({r4.psd if 'psd' in r4 else ''})", file=out)
         print(f"  φ_LT  = {_interval(r4.phi_LT, r4.phi_LT_half_width, n)}", file=out)
         print(f"  φ_RCP = {_interval(r4.phi_RCP, r4.phi_RCP_half_width, n)}", file=out)
+        if "container" in r4 and r4.container_spec != "periodic":  # the models are of the bulk
+            ref = bulk.get(r4[key])
+            if ref is not None:
+                diffs = [r4[c] - ref[c] for c in ("phi_LT", "phi_RCP")]
+                text = [f"{x:+.4f}" if math.isfinite(x) else "not estimable" for x in diffs]
+                print(f"  container − bulk ({ref.container}): φ_LT {text[0]}, φ_RCP {text[1]}", file=out)
+            continue
         models = "   ".join(f"{label_}: {r4[f'model_{m}']:.4f} (ours − model {r4[f'phi_RCP_minus_{m}']:+.4f})"
                             for m, label_ in MODELS.items())
         print(f"  models: {models}", file=out)

@@ -291,11 +291,15 @@ def job_resources(stage: str, n, ladder=None, threads: int = 1, load=None) -> di
     return {"runtime": runtime, "mem_mb": memory, "cpus_per_task": cpus_per_task(stage, threads)}
 
 
-def plan(config: dict) -> dict[int, dict[str, dict[str, float]]]:
+def plan(config: dict) -> dict[int | str, dict[str, dict[str, float]]]:
     """Per N of the experiment: jobs, expected CPU hours and requested (time-limit) hours per stage.
 
     Mirrors the workflow's jobs: per generated packing one seed, one generation (ls/fb), one MLS, and (when enabled)
-    one analyze and one calippso job; plus one MLS job per validation-grid run. First attempts only.
+    one analyze and one calippso job (none for a packing CALiPPSO does not certify); plus one MLS job per
+    validation-grid run. First attempts only. With containers the key is ``"<N> in <container> (<spec>)"``: a
+    packing in a container is priced at its own N (the experiment's, or the one its container fixes,
+    :meth:`Experiment.size`), by the same per-collision and per-iteration model as in bulk (the wall events' cost
+    is not calibrated separately).
     """
     from .experiment import Experiment  # lazy: the rules' resource lambdas never need it
 
@@ -304,22 +308,28 @@ def plan(config: dict) -> dict[int, dict[str, dict[str, float]]]:
     mls_kw = {"initial_rate": float(mls.get("initial_rate", 10.0)),
               "decrease_factor": float(mls.get("decrease_factor", 2.0)),
               "final_rate": float(mls.get("final_rate", 1e-4))}
-    jobs: list[tuple[int, str, float | None, dict]] = []
-    for run in exp.runs():
+    jobs: list[tuple[int, int | str, str, float | None, dict]] = []
+
+    def group(run) -> int | str:
         n = exp.size(run)
+        return n if not exp.has_containers else f"{n} in {run.container} ({exp.container(run.container).spec})"
+
+    for run in exp.runs():
+        n, where = exp.size(run), group(run)
         load = {"load": exp.pair_load(run.dist, n)}
-        jobs += [(n, "seed", None, {}), (n, run.protocol, run.rate, load), (n, "mls", None, {**mls_kw, **load})]
+        jobs += [(n, where, "seed", None, {}), (n, where, run.protocol, run.rate, load),
+                 (n, where, "mls", None, {**mls_kw, **load})]
         if config.get("analysis", {}).get("enabled", False):
-            jobs.append((n, "analyze", None, {}))
-        if config.get("calippso", {}).get("enabled", False):
-            jobs.append((n, "calippso", None, {}))
+            jobs.append((n, where, "analyze", None, {}))
+        if config.get("calippso", {}).get("enabled", False) and exp.certifies(run):
+            jobs.append((n, where, "calippso", None, {}))
     for g in exp.grid_runs():
         n = exp.size(g.source)
-        jobs.append((n, "mls_grid", None, {**g.ladder, "load": exp.pair_load(g.source.dist, n)}))
-    tables: dict[int, dict[str, dict[str, float]]] = {n: {} for n in exp.sizes}
-    for n, label, rate, kw in jobs:
+        jobs.append((n, group(g.source), "mls_grid", None, {**g.ladder, "load": exp.pair_load(g.source.dist, n)}))
+    tables: dict[int | str, dict[str, dict[str, float]]] = {} if exp.has_containers else {n: {} for n in exp.sizes}
+    for n, where, label, rate, kw in jobs:
         stage = "mls" if label == "mls_grid" else label
-        row = tables[n].setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
+        row = tables.setdefault(where, {}).setdefault(label, {"jobs": 0, "cpu_hours": 0.0, "requested_hours": 0.0})
         row["jobs"] += 1
         row["cpu_hours"] += cpu_seconds(stage, n, rate, **kw) / 3600.0
         row["requested_hours"] += runtime_minutes(stage, n, rate, **kw) / 60.0
@@ -340,7 +350,8 @@ def print_plan(config: dict) -> None:
         print(f"{'total':10s} {total['jobs']:7d} {total['cpu_hours']:15.1f} {total['requested_hours']:12.1f}")
         totals = {k: totals[k] + total[k] for k in totals}
     if len(tables) > 1:
-        print(f"{'all N':10s} {int(totals['jobs']):7d} {totals['cpu_hours']:15.1f} "
+        label = "all N" if all(isinstance(k, int) for k in tables) else "all"
+        print(f"{label:10s} {int(totals['jobs']):7d} {totals['cpu_hours']:15.1f} "
               f"{totals['requested_hours']:12.1f}")
 
 

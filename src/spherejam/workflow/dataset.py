@@ -13,6 +13,14 @@ own descriptors are variables (``sample_delta``, ...). Datasets written before d
 coordinates on reading (:func:`open_dataset`), from their sigma. The coordinate ``n`` is each packing's number of
 spheres N (a ladder of N has several); a dataset written before it existed gets it from its ``n`` attribute.
 
+An experiment with containers (docs/containers.md) adds the coordinates ``container`` (its name in the config),
+``container_spec`` and ``container_shape``, the variables ``container_size`` (the achieved D/<d> of a cylinder or a
+sphere, H/<d> of a slab), ``container_length`` (a cylinder's L/<d>), ``phi_core`` and ``wall_contacts`` (from the
+structure analysis), ``not_available`` (the stages skipped for the packing, with their reasons) and the porosity
+profile of each packing from its wall, ``profile_porosity`` over ``wall_distance`` (the centres of bins of
+:data:`spherejam.analysis.profiles.DEFAULT_BIN_WIDTH` mean diameters). A dataset of the
+periodic cube alone has none of these, as before containers.
+
 The config, its hash, package versions and git commit are stored as JSON-string attributes, so the file can be
 archived and browsed without the packing files (``spherejam browse``).
 """
@@ -62,6 +70,17 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "sample_skewness": ("skewness of the packing's drawn diameters", "1"),
     "sample_size_ratio": ("d_max/d_min of the packing's drawn diameters", "1"),
     "sample_z": ("M2^2/(M1 M3) of the packing's drawn diameters", "1"),
+    "container_size": ("achieved size of the container in mean diameters of the jammed packing: D/<d> of a "
+                       "cylinder or a sphere, H/<d> of a slab (NaN otherwise)", "1"),
+    "container_length": ("achieved length of a cylinder along its axis, L/<d> (NaN otherwise)", "1"),
+    "phi_core": ("packing fraction of the region at least 5 mean diameters from every wall (NaN: no such region)",
+                 "1"),
+    "wall_contacts": ("sphere-wall contacts of the jammed packing", "1"),
+    "not_available": ("stages not run for the packing, with their reasons", ""),
+    "profile_porosity": ("porosity of the jammed packing at the distance wall_distance from its wall (radial in a "
+                         "cylinder or a sphere, from the nearer wall in a slab or a box), exact sphere-shell volumes",
+                         "1"),
+    "wall_distance": ("distance from the wall of the bin centre, in mean diameters", "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "n": ("number of spheres N of the packing", "1"),
@@ -82,6 +101,9 @@ COORDS: dict[str, tuple[str, str]] = {
     "replica": ("replica index", "1"),
     "seed": ("seed of the Poisson configuration", "1"),
     "key": ("path of the run below packings/", ""),
+    "container": ("container: its name in the config (experiments with containers only)", ""),
+    "container_spec": ("spec of the container (docs/containers.md)", ""),
+    "container_shape": ("shape of the container: periodic, slab, box, cylinder or sphere", ""),
     "grid_n": ("number of spheres N of the source LS packing", "1"),
     "grid_sigma": ("relative standard deviation of the source LS packing", "1"),
     "grid_rate": ("LS compression rate gamma of the source packing", "1"),
@@ -195,11 +217,72 @@ def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], 
         row.update(_mls_scalars(exp.path(run, "jammed")))
         if exp.config.get("analysis", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "structure"), ""))
-        if exp.config.get("calippso", {}).get("enabled", True):
+        if exp.certifies(run):
             row.update(_json_scalars(exp.path(run, "calippso"), "calippso_"))
             _no_certificate_without_forces(row)
         rows.append(row)
     return runs, rows
+
+
+def collect_containers(exp: Experiment, runs: list[Run]) -> dict[str, tuple]:
+    """The container coordinates and variables of the packings ``runs`` (:data:`VARIABLES`; an experiment with
+    containers only): the achieved size from each jammed packing, the core phi, wall contacts and porosity profile
+    from its structure analysis, and the stages skipped with their reasons."""
+    from ..analysis.profiles import DEFAULT_BIN_WIDTH
+    from ..core.packing_io import read_packing
+
+    analysed = exp.config.get("analysis", {}).get("enabled", True)
+    size, length, core, wall, skipped, profiles = [], [], [], [], [], []
+    for run in runs:
+        entry = exp.container(run.container)
+        record: dict = {}
+        if analysed:
+            data = json.loads(exp.path(run, "structure").read_text())
+            record = data.get("container") or {}
+            reasons = dict(data.get("not_available") or {})
+        else:
+            reasons = {"structure": "not run (analysis.enabled: false)"}
+        if entry.is_periodic_cube:
+            achieved, porosity = {}, []
+        elif record:
+            achieved = record.get("achieved") or {}
+            porosity = _full_bins((record.get("profile") or {}), DEFAULT_BIN_WIDTH)
+        else:
+            packing = read_packing(exp.path(run, "jammed"), tolerance=None)
+            achieved, porosity = packing.container.in_diameters(packing.mean_diameter), []
+        size.append(_num(achieved.get("diameter", achieved.get("height"))))
+        length.append(_num(achieved.get("length")))
+        core_phi = (record.get("core") or {}).get("phi") if record else None
+        core.append(_num(core_phi))
+        wall.append(_num(record.get("wall_contacts")) if record else math.nan)
+        skipped.append("; ".join(f"{k}: {v}" for k, v in reasons.items()))
+        profiles.append(porosity)
+    bins = max((len(p) for p in profiles), default=0)
+    table = np.full((len(runs), bins), math.nan)
+    for i, p in enumerate(profiles):
+        table[i, :len(p)] = p
+    return {
+        "coords": {
+            "container": ("packing", np.array([run.container for run in runs], dtype=str)),
+            "container_spec": ("packing", np.array([exp.container(r.container).spec for r in runs], dtype=str)),
+            "container_shape": ("packing", np.array([exp.container(r.container).shape for r in runs], dtype=str)),
+            "wall_distance": ("wall_distance", (np.arange(bins) + 0.5) * DEFAULT_BIN_WIDTH),
+        },
+        "data_vars": {
+            "container_size": ("packing", np.array(size)),
+            "container_length": ("packing", np.array(length)),
+            "phi_core": ("packing", np.array(core)),
+            "wall_contacts": ("packing", np.array(wall)),
+            "not_available": ("packing", np.array(skipped, dtype=str)),
+            "profile_porosity": (("packing", "wall_distance"), table),
+        },
+    }
+
+
+def _full_bins(profile: dict, width: float) -> list[float]:
+    """The porosity of a profile's bins of the full ``width`` from the wall (the last, shorter bin left out)."""
+    edges, porosity = profile.get("edges") or [], profile.get("porosity") or []
+    return [float(p) for p, a, b in zip(porosity, edges[:-1], edges[1:]) if abs((b - a) - width) < 1e-9]
 
 
 def _no_certificate_without_forces(row: dict[str, float]) -> None:
@@ -250,7 +333,7 @@ def collect_distributions(exp: Experiment, part: Part | None = None) -> dict[str
     for dist in dists:
         forces, extended, gaps = [], [], []
         for run in exp.largest_runs():
-            if run.dist != dist.key:
+            if run.dist != dist.key or not exp.certifies(run):
                 continue
             c = read_group(exp.path(run, "calippso_packing"), "contacts")
             if c:
@@ -370,6 +453,10 @@ def build_dataset(manifest_path: str | os.PathLike, sizes=None, dists=None):
         "seed": ("packing", np.array([r.seed(exp.master_seed) for r in runs], dtype=np.int64)),
         "key": ("packing", np.array([r.key for r in runs], dtype=str)),
     }
+    if exp.has_containers:
+        walls = collect_containers(exp, runs)
+        coords.update(walls["coords"])
+        data_vars.update(walls["data_vars"])
     grid_runs, grid_rows = collect_grid(exp, part)
     if grid_runs:
         gnames = sorted({k for r in grid_rows for k in r})
@@ -421,7 +508,7 @@ def _grid_label(values) -> tuple:
 
 
 #: The dimensions a part's dataset is merged along, and the other dimensions of each one's variables.
-_MERGED_DIMS = {PACKING_DIM: (), GRID_DIM: (), POOLED: ("force_bin", "gap_bin")}
+_MERGED_DIMS = {PACKING_DIM: ("wall_distance",), GRID_DIM: (), POOLED: ("force_bin", "gap_bin")}
 
 
 def _along(ds, dim: str):
@@ -457,7 +544,7 @@ def merge_datasets(parts: list, names: list[str] | None = None):
             seen[key] = name
     expected: dict[tuple[int, str], list[str]] = {}
     for run in exp.runs():
-        expected.setdefault((exp.size(run), run.dist), []).append(run.key)
+        expected.setdefault((exp.cell_n(run), run.dist), []).append(run.key)
     order = [k for keys in expected.values() for k in keys]
     stray = sorted(set(seen) - set(order))
     if stray:
@@ -531,6 +618,24 @@ def with_distributions(ds):
         psd_size_ratio=("packing", np.array([desc[s].size_ratio for s in sigmas])),
         psd_z=("packing", np.array([desc[s].z for s in sigmas])),
     )
+
+
+def container_keys(ds) -> list[str]:
+    """The containers of a dataset's packings in their order (none for a dataset without containers)."""
+    if "container" not in ds.variables:
+        return []
+    return list(dict.fromkeys(str(k) for k in ds["container"].values))
+
+
+def reference_packings(ds):
+    """The packings the paper's figures and the finite-size scaling are drawn from: of a dataset with containers,
+    those in its first periodic cube (else in its first container); of one without, all."""
+    keys = container_keys(ds)
+    if not keys:
+        return ds
+    specs = dict(zip((str(k) for k in ds["container"].values), (str(s) for s in ds["container_spec"].values)))
+    key = next((k for k in keys if specs[k] == "periodic"), keys[0])
+    return ds.isel(packing=np.flatnonzero(ds["container"].values == key))
 
 
 def sizes_in(ds) -> list[int]:

@@ -9,14 +9,21 @@ A config (see ``config/schema.yaml``) names the spheres per packing, the size di
 paper's log-normals, and ``distributions``, any named spec of :mod:`spherejam.core.size_distribution`), the LS and FB
 compression-rate grids gamma, the number of replicas, the MLS parameters, and the parameter-validation grid.
 
-The experiment has two axes:
+The experiment has three axes:
 
 * the **distribution** (:class:`Distribution`), keyed in paths, seeds and the dataset by its key: ``sigma0.1`` for
   an entry of ``sigmas`` (the paths and seeds of spherejam 0.1, unchanged) or the name given in ``distributions``
   (``powder``);
 * the **number of spheres N** (``n``). A single number keeps the paths and seeds of spherejam 0.1; a list (a
   ladder of N, for finite-size scaling, docs/finite_size.md) puts each N first in the run key (``n1000/...``) and
-  in the seeds, so packings at different N are independent.
+  in the seeds, so packings at different N are independent;
+* the **container** (:class:`ContainerEntry`, ``containers``: name -> spec of :mod:`spherejam.core.container`).
+  Without it, or with only ``periodic``, every packing fills the periodic cube, with the paths and seeds of before
+  containers. With any other container, each run key starts with the container's name (after ``n<N>/`` of a ladder:
+  ``column/ls/sigma0/rate0.5/r0``) and every seed has the label ``container:<name>``. A container that leaves a
+  length free (``cylinder:diameter=10``) takes the experiment's N and solves that length; one that gives every
+  length (``sphere:diameter=12``) fixes N itself (:meth:`Experiment.size`). CALiPPSO certifies the packings of
+  every container (its wall rows: docs/containers.md §5).
 
 Files below the results folder ``<results>``:
 
@@ -49,6 +56,10 @@ PROTOCOLS = ("ls", "fb")
 RUN_KEY = "{protocol}/{dist}/rate{rate}/r{replica}"
 #: Run key of an experiment with a ladder of N (``n`` a list): N first, so each N's packings share one folder.
 N_LADDER_KEY = "n{n}/" + RUN_KEY
+#: The container's part of a run key in an experiment with containers (after ``n<N>/`` of a ladder).
+CONTAINER_PREFIX = "{container}/"
+#: Container names that would read as another part of a run key.
+_RESERVED_CONTAINER = re.compile(r"(ls|fb|n\d+|sigma[0-9].*)")
 #: The part of a validation-grid run's key after its packing's: its MLS ladder (decrease factor f, initial and final
 #: rate).
 GRID_SUFFIX = "/f{factor}_g{g0}_gf{gf}"
@@ -61,7 +72,8 @@ _SHORTHAND = re.compile(r"sigma([0-9][0-9.e+-]*)")
 #: What each wildcard of the keys may match (the workflow's global ``wildcard_constraints``).
 #: ``dist`` is a name or ``sigma`` followed by a number (``sigma0.1``, ``sigma1e-05``).
 WILDCARD_CONSTRAINTS = {"n": r"\d+", "protocol": "|".join(PROTOCOLS), "dist": r"[A-Za-z][A-Za-z0-9_.+-]*",
-                        "rate": _NUMBER, "replica": r"\d+", "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER}
+                        "rate": _NUMBER, "replica": r"\d+", "factor": _NUMBER, "g0": _NUMBER, "gf": _NUMBER,
+                        "container": NAME_PATTERN}
 
 #: The files of one packing below ``packings/<run key>/``, by stage: the Poisson start, the LS or FB output, the MLS
 #: output, its structure analysis, CALiPPSO's summary and CALiPPSO's packing (with its contacts and forces).
@@ -72,14 +84,18 @@ PACKING_FILES = {"poisson": "poisson.h5", "initial": "initial.h5", "jammed": "ja
 #: ``checkpoints/``, and whether its key is a run's or a validation-grid run's. The job names are the rules' and the
 #: cost model's stages; LS and FB jobs are filed by protocol (``logs/ls/sigma0.1/rate0.5/r0.log``).
 JOB_FOLDERS = {"seed": ("seed", "run"), "ls": ("", "run"), "fb": ("", "run"), "mls": ("mls", "run"),
-               "analyze": ("structure", "run"), "calippso": ("calippso", "run"), "mls_grid": ("validation", "grid")}
+               "analyze": ("structure", "run"), "calippso": ("calippso", "run"), "mls_grid": ("validation", "grid"),
+               "view": ("views", "run")}
 
 #: The paper's tables and the figures drawn from the dataset (Fig. 1, a rendered packing, is apart).
 TABLE_NAMES = ("table2", "table3", "table4")
 TABLE_FORMATS = ("csv", "md", "tex")
-FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling")
+FIGURE_NAMES = ("fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "structure", "forces", "scaling", "containers",
+                "profiles")
 #: Figures that need packings at several N.
 N_LADDER_FIGURES = ("scaling",)
+#: Figures that need containers with walls (spherejam.workflow.container_figures).
+CONTAINER_FIGURES = ("containers", "profiles")
 FIGURE_FORMATS = ("png", "pdf")
 
 
@@ -193,6 +209,55 @@ def distributions_of(config: dict[str, Any]) -> list[Distribution]:
     return out
 
 
+@dataclass(frozen=True)
+class ContainerEntry:
+    """One value of the container axis: its name (``key``, in run keys and seeds) and its spec in canonical form
+    (:attr:`spherejam.core.container.ContainerSpec.text`)."""
+
+    key: str
+    spec: str
+
+    @property
+    def is_periodic_cube(self) -> bool:
+        """The periodic cube, which every stage handles (CALiPPSO, g(r), Voronoi, pores)."""
+        return self.spec == "periodic"
+
+    def model(self):
+        """The parsed :class:`~spherejam.core.container.ContainerSpec`."""
+        from ..core.container import parse
+
+        return parse(self.spec, f"containers.{self.key}")
+
+    @property
+    def shape(self) -> str:
+        return self.spec.partition(":")[0]
+
+
+def containers_of(config: dict[str, Any]) -> list[ContainerEntry]:
+    """The experiment's containers in the order given (``containers``; none: the periodic cube alone). Raises
+    :class:`InputError` naming a bad name or spec."""
+    from ..core.container import parse
+
+    named = config.get("containers") or {}
+    if not isinstance(named, dict):
+        raise InputError(f"containers={named!r}: must be a mapping of names to specs, e.g. {{column: "
+                         "'cylinder:diameter=10'}")
+    out = []
+    for name, spec in named.items():
+        if not isinstance(name, str) or not re.fullmatch(NAME_PATTERN, name) or _RESERVED_CONTAINER.fullmatch(name):
+            raise InputError(f"containers.{name}: a name is a letter then letters, digits, _ or - (and not ls, fb, "
+                             "n<number> or sigma<number>, which would read as another part of a run key)")
+        if not isinstance(spec, str):
+            raise InputError(f"containers.{name}={spec!r}: must be a spec string such as 'cylinder:diameter=10'")
+        out.append(ContainerEntry(name, parse(spec, f"containers.{name}").text))
+    specs = [c.spec for c in out]
+    for i, c in enumerate(out):
+        if specs.index(c.spec) != i:
+            raise InputError(f"containers.{c.key}={c.spec!r}: the same container as containers."
+                             f"{out[specs.index(c.spec)].key}")
+    return out or [ContainerEntry("periodic", "periodic")]
+
+
 def config_hash(config: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -208,6 +273,7 @@ class Run:
     rate: float
     replica: int
     n: int | None = None
+    container: str | None = None  #: the container's name in an experiment with containers (else None)
 
     def __post_init__(self):
         if not isinstance(self.dist, str):
@@ -218,8 +284,9 @@ class Run:
         """The run of a job from its wildcards ``protocol``, ``dist``, ``rate``, ``replica`` and, with a ladder of
         N, ``n`` (path text)."""
         n = getattr(wildcards, "n", None)
+        container = getattr(wildcards, "container", None)
         return cls(wildcards.protocol, str(wildcards.dist), float(wildcards.rate), int(wildcards.replica),
-                   None if n is None else int(n))
+                   None if n is None else int(n), None if container is None else str(container))
 
     @property
     def sigma(self) -> float:
@@ -229,17 +296,25 @@ class Run:
 
     @property
     def key(self) -> str:
-        key = RUN_KEY if self.n is None else N_LADDER_KEY
-        return key.format(n=self.n, protocol=self.protocol, dist=self.dist, rate=fmt(self.rate),
-                          replica=self.replica)
+        return run_pattern(self.n is not None, self.container is not None).format(
+            n=self.n, container=self.container, protocol=self.protocol, dist=self.dist, rate=fmt(self.rate),
+            replica=self.replica)
 
     def seed(self, master: int, purpose: str = "poisson") -> int:
         """The seed for ``purpose``; a ``sigmas`` run's label is its sigma (the seeds of spherejam 0.1), a named
-        distribution's is ``psd:<name>``; a run of a ladder of N has ``n<N>`` first."""
+        distribution's is ``psd:<name>``; a run of a ladder of N has ``n<N>`` first, a run of an experiment with
+        containers ``container:<name>`` next."""
         m = _SHORTHAND.fullmatch(self.dist)
         label = float(m.group(1)) if m else f"psd:{self.dist}"
         size = () if self.n is None else (f"n{self.n}",)
-        return derive_seed(master, *size, self.protocol, label, float(self.rate), self.replica, purpose)
+        where = () if self.container is None else (f"container:{self.container}",)
+        return derive_seed(master, *size, *where, self.protocol, label, float(self.rate), self.replica, purpose)
+
+
+def run_pattern(n_ladder: bool, containers: bool) -> str:
+    """The run-key pattern of an experiment: :data:`RUN_KEY`, with the container's name first if it has
+    containers, and ``n<N>/`` before that for a ladder of N."""
+    return ("n{n}/" if n_ladder else "") + (CONTAINER_PREFIX if containers else "") + RUN_KEY
 
 
 @dataclass(frozen=True)
@@ -284,7 +359,7 @@ class Part:
     cells: frozenset[tuple[int, str]]
 
     def holds(self, exp: Experiment, run: Run) -> bool:
-        return (exp.size(run), run.dist) in self.cells
+        return (exp.cell_n(run), run.dist) in self.cells
 
     @property
     def label(self) -> str:
@@ -296,30 +371,37 @@ class Paths:
     :attr:`Run.key` or :attr:`GridRun.key`; by default it is the wildcard pattern the rules use, with an ``{n}``
     wildcard for a ladder of N (``n_ladder``)."""
 
-    def __init__(self, results: Path, n_ladder: bool = False):
+    def __init__(self, results: Path, n_ladder: bool = False, containers: bool = False):
         self.results = results
-        self.run_pattern = N_LADDER_KEY if n_ladder else RUN_KEY
+        self.run_pattern = run_pattern(n_ladder, containers)
         self.grid_pattern = self.run_pattern + GRID_SUFFIX
+        #: the run pattern with the container's name, also in an experiment without containers (the rule of seeding
+        #: in a container has it always; with no container it matches no file)
+        self.container_run_pattern = run_pattern(n_ladder, True)
 
     def _file(self, *parts: str) -> str:
         return str(self.results.joinpath(*parts))
 
-    def packing(self, stage: str, key: str | None = None) -> str:
-        """A file of one packing: stage is a key of :data:`PACKING_FILES`."""
-        return self._file("packings", self.run_pattern if key is None else key, PACKING_FILES[stage])
+    def _run(self, key: str | None, container: bool) -> str:
+        return key if key is not None else self.container_run_pattern if container else self.run_pattern
+
+    def packing(self, stage: str, key: str | None = None, container: bool = False) -> str:
+        """A file of one packing: stage is a key of :data:`PACKING_FILES`; ``container``: the pattern with the
+        container's name (:attr:`container_run_pattern`)."""
+        return self._file("packings", self._run(key, container), PACKING_FILES[stage])
 
     def grid(self, key: str | None = None) -> str:
         """The MLS output of one validation-grid run."""
         return self._file("validation", f"{self.grid_pattern if key is None else key}.h5")
 
-    def _job(self, kind: str, job: str, key: str | None, suffix: str) -> str:
+    def _job(self, kind: str, job: str, key: str | None, suffix: str, container: bool = False) -> str:
         folder, which = JOB_FOLDERS[job]
-        pattern = self.run_pattern if which == "run" else self.grid_pattern
+        pattern = self._run(None, container) if which == "run" else self.grid_pattern
         return self._file(kind, folder, f"{pattern if key is None else key}{suffix}")
 
-    def log(self, job: str, key: str | None = None) -> str:
+    def log(self, job: str, key: str | None = None, container: bool = False) -> str:
         """Log of a per-packing job (a key of :data:`JOB_FOLDERS`)."""
-        return self._job("logs", job, key, ".log")
+        return self._job("logs", job, key, ".log", container)
 
     def benchmark(self, job: str, key: str | None = None) -> str:
         return self._job("benchmarks", job, key, ".tsv")
@@ -357,6 +439,10 @@ class Paths:
 
     def figure(self, ext: str, name: str = "{name}") -> str:
         return self._file("figures", f"{name}.{ext}")
+
+    def view(self, key: str | None = None) -> str:
+        """The interactive page (``spherejam view``) of one jammed packing."""
+        return self._file("views", f"{self.run_pattern if key is None else key}.html")
 
     def figures(self, names=FIGURE_NAMES) -> list[str]:
         """The figures ``names`` in every format."""
@@ -411,6 +497,7 @@ class Experiment:
             raise InputError(f"config: missing or malformed key {exc}") from None
         if not self.distributions:
             raise InputError("sigmas: give sigmas or distributions (at least one size distribution)")
+        self.containers = containers_of(config)
         check_distinct_paths(self.sigmas, "sigmas")
         keys = [d.key for d in self.distributions]
         if len(set(keys)) != len(keys):
@@ -426,7 +513,10 @@ class Experiment:
                         d.model().check_n(n)
                     except InputError as exc:
                         raise InputError(f"distributions.{d.key}: {exc}") from None
-        self.paths = Paths(self.results, self.n_ladder)
+        #: whether the run keys and seeds carry the container (any container but the periodic cube)
+        self.has_containers = any(not c.is_periodic_cube for c in self.containers)
+        self._fixed_n = self._container_sizes()
+        self.paths = Paths(self.results, self.n_ladder, self.has_containers)
         for p in PROTOCOLS:
             check_distinct_paths(self.rates[p], f"{p}.rates")
             for k, (_, extra, sizes) in enumerate(self.extra_rates[p]):
@@ -449,6 +539,66 @@ class Experiment:
                 if fmt(sigma) not in known:  # its LS packings would not be in the experiment either
                     raise InputError(f"validation_grid.sigmas={fmt(sigma)}: not one of sigmas")
                 check_grid_rates(rate_grid(grid.get("ls_rates", [])), self.rates_for("ls", float(sigma)))
+
+    def _container_sizes(self) -> dict[tuple[str, str], int]:
+        """N of every (container, distribution) whose container gives every length (it fixes N), and a check that
+        each container holds its spheres at every N it is filled with: a container too small is refused here, in
+        one line, before any job."""
+        import numpy as np
+
+        from ..core import container as core_container
+
+        fixed: dict[tuple[str, str], int] = {}
+        if not self.has_containers:
+            return fixed
+        for c in self.containers:
+            spec = c.model()
+            for d in self.distributions:
+                model = d.model()
+                mean_volume = math.pi / 6.0 * model.descriptors().m3
+                n_fixed = model.fixed_n or core_container.number_for(spec, mean_volume)
+                where = f"containers.{c.key}={c.spec!r} with distributions.{d.key}"
+                if core_container.number_for(spec, mean_volume) is not None:
+                    if self.n_ladder:
+                        raise InputError(f"containers.{c.key}={c.spec!r}: gives every length, which fixes N; a "
+                                         "ladder of N needs a length left free (e.g. the cylinder's length)")
+                    if not 2 <= n_fixed <= 10_000_000:
+                        raise InputError(f"{where}: holds about {n_fixed} spheres (N must be 2 ... 10^7)")
+                    fixed[c.key, d.key] = int(n_fixed)
+                for n in ([fixed[c.key, d.key]] if (c.key, d.key) in fixed else self.sizes):
+                    nominal = model.draw(model.fixed_n or n, np.random.default_rng(0))
+                    try:
+                        core_container.build(spec, None if (c.key, d.key) in fixed else n, nominal)
+                    except InputError as exc:
+                        raise InputError(f"containers.{c.key}: {exc} (N = {n}, distributions.{d.key})") from None
+        return fixed
+
+    def container(self, key: str | None) -> ContainerEntry:
+        """The container of a run's container name (None: the periodic cube of an experiment without containers)."""
+        if key is None:
+            return self.containers[0] if not self.has_containers else ContainerEntry("periodic", "periodic")
+        for c in self.containers:
+            if c.key == key:
+                return c
+        raise InputError(f"container={key!r}: not one of {', '.join(c.key for c in self.containers)}")
+
+    @property
+    def container_keys(self) -> list[str | None]:
+        """The runs' container names: the config's, or [None] without containers (no container in keys or seeds)."""
+        return [c.key for c in self.containers] if self.has_containers else [None]
+
+    @property
+    def reference_container(self) -> str | None:
+        """The container of the paper's figures and of the validation grid: the first periodic cube, else the first
+        container (None without containers)."""
+        if not self.has_containers:
+            return None
+        cubes = [c.key for c in self.containers if c.is_periodic_cube]
+        return (cubes or [self.containers[0].key])[0]
+
+    def certifies(self, run: Run) -> bool:
+        """Whether CALiPPSO certifies ``run`` (``calippso.enabled``; every container is certified)."""
+        return bool(self.config.get("calippso", {}).get("enabled", True))
 
     def distribution(self, key: str) -> Distribution:
         """The distribution of a key (``sigma0.1`` or a name)."""
@@ -478,9 +628,13 @@ class Experiment:
         """The largest N: the one closest to the paper's N = 10^4, drawn in the figures of a single N."""
         return self.sizes[-1]
 
-    def size(self, run: Run) -> int:
-        """The number of spheres N of a run."""
+    def cell_n(self, run: Run) -> int:
+        """The experiment's N the run belongs to (its cell of a :class:`Part`): ``n``, or the run's N of a ladder."""
         return self.sizes[0] if run.n is None else run.n
+
+    def size(self, run: Run) -> int:
+        """The number of spheres N of a run: the experiment's (:meth:`cell_n`), or the one its container fixes."""
+        return self._fixed_n.get((run.container, run.dist), self.cell_n(run))
 
     def size_of(self, wildcards) -> int:
         """N of a job, from its wildcards (a Snakemake ``params`` or resources function)."""
@@ -492,8 +646,9 @@ class Experiment:
         protocols = PROTOCOLS if protocol is None else (protocol,)
         sizes = [None] if not self.n_ladder else self.sizes if n is None else [n]
         runs = [
-            Run(p, d.key, r, k, size)
+            Run(p, d.key, r, k, size, c)
             for size in sizes
+            for c in self.container_keys
             for p in protocols
             for d in self.distributions
             for r in self.rates_for(p, d.key, size)
@@ -527,12 +682,14 @@ class Experiment:
     @property
     def figure_names(self) -> tuple[str, ...]:
         """The figures of the experiment: every one of :data:`FIGURE_NAMES`, those of finite-size scaling only with
-        packings at several N."""
-        return tuple(f for f in FIGURE_NAMES if self.several_n or f not in N_LADDER_FIGURES)
+        packings at several N, those of containers only with containers."""
+        return tuple(f for f in FIGURE_NAMES if (self.several_n or f not in N_LADDER_FIGURES)
+                     and (self.has_containers or f not in CONTAINER_FIGURES))
 
     def largest_runs(self, protocol: str | None = None) -> list[Run]:
-        """The packings at the largest N (all of them for a single N)."""
-        return self.runs(protocol, self.largest_n if self.n_ladder else None)
+        """The packings at the largest N (all of them for a single N) in the :attr:`reference_container`."""
+        return [r for r in self.runs(protocol, self.largest_n if self.n_ladder else None)
+                if r.container == self.reference_container]
 
     def figure1_run(self) -> Run:
         """The run whose closest jammed configuration Fig. 1 shows: at the largest N, the largest sigma (of the
@@ -542,6 +699,43 @@ class Experiment:
                 or [r for r in self.largest_runs("ls") if r.replica == 0])
         order = {d.key: i for i, d in enumerate(self.distributions)}
         return max(runs, key=lambda r: (r.sigma if r.sigma == r.sigma else -1.0, -order[r.dist], r.rate))
+
+    def column_run(self) -> Run | None:
+        """The packing the render of a packed column shows: in the first cylinder, at the largest N, chosen as
+        :meth:`figure1_run` chooses among the bulk packings (None without a cylinder)."""
+        cylinders = [c.key for c in self.containers if c.shape == "cylinder"] if self.has_containers else []
+        if not cylinders:
+            return None
+        size = self.largest_n if self.n_ladder else None
+        runs = ([r for r in self.runs("fb", size) if r.replica == 0 and r.container == cylinders[0]]
+                or [r for r in self.runs("ls", size) if r.replica == 0 and r.container == cylinders[0]])
+        order = {d.key: i for i, d in enumerate(self.distributions)}
+        return max(runs, key=lambda r: (r.sigma if r.sigma == r.sigma else -1.0, -order[r.dist], r.rate))
+
+    def view_runs(self) -> list[Run]:
+        """The packings the report shows as interactive pages: per cell (container and size distribution) at the
+        largest N, the one :meth:`figure1_run` would choose there (replica 0, FB at its fastest rate, else LS)."""
+        size = self.largest_n if self.n_ladder else None
+        out = []
+        for c in self.container_keys:
+            for d in self.distributions:
+                runs = [r for r in self.runs("fb", size) if r.replica == 0 and r.container == c and r.dist == d.key]
+                runs = runs or [r for r in self.runs("ls", size)
+                                if r.replica == 0 and r.container == c and r.dist == d.key]
+                if runs:
+                    out.append(max(runs, key=lambda r: r.rate))
+        return out
+
+    def extra_figures(self) -> list[str]:
+        """The outputs of ``all`` beyond the dataset, tables and figures that the config's ``figures`` switches on:
+        Fig. 1, the packed column, the interactive pages."""
+        switches = self.config.get("figures", {})
+        out = self.paths.figures(["fig1"]) if switches.get("render_fig1", False) else []
+        if switches.get("render_column", False) and self.column_run() is not None:
+            out += self.paths.figures(["column"])
+        if switches.get("view_pages", False):
+            out += [self.paths.view(r.key) for r in self.view_runs()]
+        return out
 
     def psd_inputs(self) -> list[str]:
         """Every PSD file of the experiment's distributions (inputs of the dataset, table and figure jobs too)."""
@@ -571,6 +765,16 @@ class Experiment:
         """The pair load W of a job's distribution at its N, from its wildcards (a Snakemake resources function)."""
         return self.pair_load(str(wildcards.dist), self.size_of(wildcards))
 
+    def seed_container(self, wildcards) -> str:
+        """The ``--container`` spec of a seeding job in a container, from its wildcards."""
+        return self.container(str(wildcards.container)).spec
+
+    def container_pattern(self, periodic_cube: bool) -> str:
+        """The ``container`` wildcard's values of the seeding rule for the periodic cube (``periodic_cube``) or for
+        the other containers: their names as a regular expression (one that matches nothing if there are none)."""
+        keys = [c.key for c in self.containers if c.is_periodic_cube == periodic_cube] if self.has_containers else []
+        return "|".join(re.escape(k) for k in keys) or "(?!)"
+
     def psd(self, wildcards) -> str:
         """The ``--psd`` spec of a seeding job, from its wildcards."""
         return self.distribution(str(wildcards.dist)).spec
@@ -592,7 +796,7 @@ class Experiment:
         canonical = {float(s): {fmt(x): x for x in self.rates_for("ls", float(s))} for s in g["sigmas"]}
         size = self.largest_n if self.n_ladder else None  # Fig. 3 at one N: the largest
         sources = [
-            Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k, size)
+            Run("ls", float(s), canonical[float(s)].get(fmt(float(r)), float(r)), k, size, self.reference_container)
             for s in g["sigmas"]
             for r in rate_grid(g["ls_rates"])
             for k in range(int(g.get("replicas", 1)))
@@ -662,9 +866,10 @@ class Experiment:
         stages = ["initial", "jammed"]
         if self.config.get("analysis", {}).get("enabled", True):  # the schema's defaults
             stages.append("structure")
-        if self.config.get("calippso", {}).get("enabled", True):
-            stages += ["calippso", "calippso_packing"]
-        files = [self.paths.packing(stage, run.key) for run in self.runs(part=part) for stage in stages]
+        files = []
+        for run in self.runs(part=part):
+            certified = ["calippso", "calippso_packing"] if self.certifies(run) else []
+            files += [self.paths.packing(stage, run.key) for stage in stages + certified]
         return files + [self.paths.grid(g.key) for g in self.grid_runs(part)]
 
 

@@ -18,7 +18,7 @@ from ..core.atomic import atomic_output
 from ..core.errors import InputError
 from .bands import FAST_DEFAULTS
 from . import finite_size, paper_reference
-from .dataset import at_n, dataset_config, sizes_in
+from .dataset import at_n, container_keys, dataset_config, reference_packings, sizes_in
 from .tables import TABLE2_ROWS, band_settings, completed_phi_J, compute_tables, fast_bands, paper_row
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
@@ -564,8 +564,16 @@ def _scaling_panel(ax, samples, protocol, group, alpha, conf, target, paper, pap
     ax.grid(alpha=0.3)
 
 
+def _container_figures():
+    from . import container_figures
+
+    return container_figures.FIGURES
+
+
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6, "fig7": fig7,
-           "structure": structure, "forces": forces, "scaling": scaling}
+           "structure": structure, "forces": forces, "scaling": scaling,
+           "containers": lambda ds: _container_figures()["containers"](ds),
+           "profiles": lambda ds: _container_figures()["profiles"](ds)}
 
 
 #: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5, the tables and the force
@@ -575,9 +583,21 @@ PER_SIGMA = ("fig2", "fig4", "fig6", "fig7")
 
 def draw(name: str, ds):
     """Figure ``name`` of a dataset. With packings at several N, every figure but ``scaling`` shows the largest N
-    (the closest to the paper's), and says so in its lower right corner."""
+    (the closest to the paper's), and says so in its lower right corner. With containers, the paper's figures show
+    the packings of the reference container (:func:`~spherejam.workflow.dataset.reference_packings`: the periodic
+    cube), and say so; the container figures show them all."""
     if name not in FIGURES:
         raise InputError(f"figure={name!r}: must be one of {', '.join(FIGURES)}")
+    if name in _container_figures():
+        return FIGURES[name](ds)
+    keys = container_keys(ds)
+    if keys:
+        ref = reference_packings(ds)
+        fig = draw(name, ref.drop_vars([v for v in ref.variables if v.startswith(("container", "wall_", "profile_"))]))
+        fig.text(0.005, 0.003, f"packings in {str(ref['container'].values[0])} "
+                 f"({str(ref['container_spec'].values[0])}) only, of the containers {', '.join(keys)} (the others: "
+                 "figures containers and profiles, and the tables)", ha="left", va="bottom", fontsize=7, color="0.35")
+        return fig
     sizes = sizes_in(ds)
     if name != "scaling" and len(sizes) > 1:
         fig = draw(name, at_n(ds, sizes[-1]))

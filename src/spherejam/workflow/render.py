@@ -1,4 +1,6 @@
-"""A packing drawn as spheres in its periodic cell, ray-traced with OVITO (the paper's Fig. 1).
+"""A packing drawn as spheres in its periodic cell, ray-traced with OVITO (the paper's Fig. 1), or in its container
+(docs/containers.md): a box or a slab with its frame, a cylinder from the side (the frame not drawn, so the column
+shows by its spheres), a sphere as a ball.
 
 OVITO's Python module (``pip install 'spherejam[render]'``) is optional: it is imported only here, and only when a
 picture is made. Its Tachyon renderer needs the Vulkan loader and Mesa's software driver at run time (Debian:
@@ -20,6 +22,8 @@ INSTALL_HINT = ("rendering needs OVITO: pip install 'spherejam[render]' (and on 
                 "apt-get install libvulkan1 mesa-vulkan-drivers)")
 #: Camera direction of the view: from a corner, slightly above, so three faces of the cell show.
 CAMERA_DIR = (-1.0, -0.75, -0.55)
+#: Camera direction for a cylinder along z: from the side, slightly above, so the column stands upright.
+COLUMN_CAMERA_DIR = (-1.0, -0.6, -0.35)
 
 
 def ovito_available() -> bool:
@@ -64,11 +68,13 @@ def render_spheres(packing: Packing, path: str | os.PathLike, size: tuple[int, i
     if packing.dim != 3:
         raise SpherejamError(f"dimension d={packing.dim}: only 3D packings can be rendered")
     DataCollection, Pipeline, StaticSource, TachyonRenderer, Viewport = _import_ovito()
-    L = float(packing.box)
+    c = packing.container
+    lengths = [float(x) for x in c.lengths]
     data = DataCollection()
-    cell = data.create_cell(np.array([[L, 0, 0, 0], [0, L, 0, 0], [0, 0, L, 0]], dtype=float),
-                            pbc=(True, True, True))
-    cell.vis.line_width = 0.004 * L
+    cell = data.create_cell(np.array([[lengths[0], 0, 0, 0], [0, lengths[1], 0, 0], [0, 0, lengths[2], 0]],
+                                     dtype=float), pbc=tuple(bool(p) for p in c.periodic))
+    cell.vis.line_width = 0.004 * max(lengths)
+    cell.vis.enabled = c.curved is None  # a cylinder or a sphere shows by its spheres, not by its frame
     particles = data.create_particles(count=packing.n)
     particles.create_property("Position", data=packing.positions)
     particles.create_property("Radius", data=0.5 * packing.diameters)
@@ -76,7 +82,8 @@ def render_spheres(packing: Packing, path: str | os.PathLike, size: tuple[int, i
     pipeline = Pipeline(source=StaticSource(data=data))
     pipeline.add_to_scene()
     try:
-        viewport = Viewport(type=Viewport.Type.Perspective, camera_dir=CAMERA_DIR)
+        column = c.curved == "cylinder" and c.axis == 2
+        viewport = Viewport(type=Viewport.Type.Perspective, camera_dir=COLUMN_CAMERA_DIR if column else CAMERA_DIR)
         viewport.zoom_all(size=size)
         viewport.render_image(size=size, filename=str(path), background=(1.0, 1.0, 1.0),
                               renderer=TachyonRenderer(ambient_occlusion=True, antialiasing_samples=4))
@@ -117,14 +124,20 @@ def figure(packing: Packing, size: tuple[int, int] = (800, 800), sigma: float | 
         jammed = packing.metadata.get("algorithm") == "mls"
         what = "closest jammed configuration\n" if jammed else ""
         title = f"{what}N = {packing.n}, {'$φ_J$' if jammed else 'φ'} = {packing.phi:.4f}, {spread}"
+        if not packing.container.is_periodic_cube:
+            achieved = ", ".join(f"{k} = {v:.3g}" for k, v in
+                                 packing.container.in_diameters(packing.mean_diameter).items())
+            title += f"\n{packing.container.shape}: {achieved} ⟨d⟩"
     dpi = 150
     h, w = image.shape[0] / dpi, image.shape[1] / dpi  # inches at the figure's resolution
-    fig = plt.figure(figsize=(w + 1.2, h + 0.6), dpi=dpi)
-    ax = fig.add_axes((0.0, 0.0, w / (w + 1.2), h / (h + 0.6)))
+    pad = max(0.0, 4.4 - (w + 1.2))  # a tall, narrow column: room for the title on both sides
+    width = w + 1.2 + pad
+    fig = plt.figure(figsize=(width, h + 0.6), dpi=dpi)
+    ax = fig.add_axes((0.5 * pad / width, 0.0, w / width, h / (h + 0.6)))
     ax.imshow(image)
     ax.set_axis_off()
     _, (lo, hi) = diameter_colours(d)
-    cax = fig.add_axes(((w + 0.15) / (w + 1.2), 0.15, 0.15 / (w + 1.2), 0.6))
+    cax = fig.add_axes(((0.5 * pad + w + 0.15) / width, 0.15, 0.15 / width, 0.6))
     fig.colorbar(plt.cm.ScalarMappable(Normalize(lo, hi), "viridis"), cax=cax, label="diameter D")
     fig.suptitle(title, fontsize=9)
     return fig

@@ -27,6 +27,12 @@ A dataset with packings at several N (a ladder) gets its rows per N (column ``n`
 paper's N = 10^4 and to N -> infinity (``extrapolated``; :mod:`spherejam.workflow.finite_size`, docs/finite_size.md):
 Table 3's edges predicted for the paper's sample sizes, Table 2's phi_GCP extrapolated per curve, and Table 4 from
 those by its own rule. ``finite_size.{csv,md}`` gives the fitted scaling and its leave-the-largest-N-out check.
+
+A dataset with containers (docs/containers.md) gets every table per container (columns ``container`` and
+``container_spec`` first), each computed from that container's packings alone, so that phi_LT and phi_RCP in a
+cylinder stand beside the bulk ones. The paper's values are those of the bulk: a container other than the periodic
+cube has none (NaN), and its finite-size scaling is not fitted (``finite_size`` is of the reference container,
+:func:`spherejam.workflow.dataset.reference_packings`).
 """
 
 from __future__ import annotations
@@ -43,7 +49,7 @@ from ..core.errors import InputError
 from . import paper_reference
 from .bands import BAND_DEFAULTS, FAST_DEFAULTS, band_edges
 from . import finite_size
-from .dataset import at_n, dataset_config, sizes_in, with_distributions
+from .dataset import at_n, container_keys, dataset_config, reference_packings, sizes_in, with_distributions
 from .fits import FIT_DEFAULTS, GCP_MONODISPERSE, N_COEFFICIENTS, fit_gcp
 
 #: Table 2 rows: (label, protocol, variable, config key of the number of slowest points).
@@ -377,8 +383,10 @@ def n_label(n: float, extrapolated: bool = False) -> str:
 
 
 def _n_cells(r) -> dict:
-    """The N cell of a row of a table with several N (none for one N, whose tables are those of spherejam 0.1)."""
-    return {"N": n_label(r.n, bool(r.extrapolated))} if "n" in r.index else {}
+    """The container cell of a row of a table with containers, and the N cell of a row of a table with several N
+    (none for one N in the periodic cube, whose tables are those of spherejam 0.1)."""
+    cells = {"container": r.container} if "container" in r.index else {}
+    return {**cells, "N": n_label(r.n, bool(r.extrapolated))} if "n" in r.index else cells
 
 
 def formatted(name: str, t: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
@@ -440,7 +448,9 @@ def _taken_from_paper(r) -> bool:
 
 
 def _where(r) -> dict:
-    where = {"n": r.n} if "n" in r.index else {}
+    where = {"container": r.container} if "container" in r.index else {}
+    if "n" in r.index:
+        where["n"] = r.n
     if "distribution" in r.index:
         where["distribution"] = r.distribution
     return {**where, "sigma": r.sigma}
@@ -578,7 +588,42 @@ def _with_n(t: pd.DataFrame, n: float, extrapolated: bool) -> pd.DataFrame:
 
 
 def compute_tables(ds) -> dict[str, pd.DataFrame]:
-    """Tables 2-4 of a dataset; for packings at several N, per N and extrapolated (column ``n``)."""
+    """Tables 2-4 of a dataset; for packings at several N, per N and extrapolated (column ``n``); with containers,
+    per container (columns ``container`` and ``container_spec``)."""
+    keys = container_keys(ds)
+    if not keys:
+        return _tables_in_one_container(ds)
+    parts = []
+    for key in keys:
+        sub = ds.isel(packing=np.flatnonzero(ds["container"].values == key))
+        spec = str(sub["container_spec"].values[0])
+        tables = _tables_in_one_container(sub)
+        for name, t in tables.items():
+            t = t.copy()
+            if spec != "periodic":  # the paper's values, and the conventional phi_GCP of equal spheres, are the bulk's
+                for col in t.columns:
+                    if "paper" in col and t[col].dtype.kind == "f":
+                        t[col] = np.nan
+                    elif col.endswith("_paper_derived"):
+                        t[col] = False
+                if "phi_GCP_source" in t.columns:
+                    conventional = t["phi_GCP_source"] == "paper"
+                    t.loc[conventional, ["phi_GCP", "phi_GCP_half_width"]] = np.nan
+                    t.loc[conventional, "phi_GCP_source"] = "none: the conventional 0.65 is the bulk's"
+                    if "gcp_below_rcp" in t.columns:
+                        t.loc[conventional, "gcp_below_rcp"] = False
+            t.insert(0, "container", key)
+            t.insert(1, "container_spec", spec)
+            tables[name] = t
+        parts.append(tables)
+    out = {name: pd.concat([p[name] for p in parts], ignore_index=True) for name in parts[0]}
+    for name in out:
+        out[name].attrs.update(parts[0][name].attrs)
+    return out
+
+
+def _tables_in_one_container(ds) -> dict[str, pd.DataFrame]:
+    """Tables 2-4 of packings in one container (or of a dataset without containers)."""
     sizes = sizes_in(ds)
     if len(sizes) <= 1:
         return _tables_at_one_n(ds)
@@ -792,7 +837,7 @@ def write_tables(ds, outdir: str | os.PathLike) -> list[Path]:
         texts[f"{name}.md"] = md
         texts[f"{name}.tex"] = tex
     if len(sizes_in(ds)) > 1:
-        scaling = finite_size_table(ds)
+        scaling = finite_size_table(reference_packings(ds))
         texts["finite_size.csv"] = scaling.to_csv(index=False, float_format="%.10g")
         texts["finite_size.md"] = _markdown(finite_size_formatted(scaling), FINITE_SIZE_CAPTION, FINITE_SIZE_NOTES)
     comp = comparison(tables)
