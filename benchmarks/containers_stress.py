@@ -126,6 +126,24 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def summary(records: list[dict]) -> str:
+    """One row per N and protocol: runs, outcomes, the worst overlap and penetration, the largest CPU time."""
+    lines = ["| N | protocol | runs (shapes x distributions) | ok | failed, crashed or refused | worst overlap | "
+             "worst penetration | stopped by the time budget | largest CPU s |", "|---|---|---|---|---|---|---|---|---|"]
+    for n in sorted({r["n"] for r in records}):
+        for protocol in PROTOCOLS:
+            rr = [r for r in records if r["n"] == n and r["protocol"] == protocol]
+            if not rr:
+                continue
+            ov = max((r["worst_overlap"] for r in rr if "worst_overlap" in r), default=float("nan"))
+            pen = max((r["worst_penetration"] for r in rr if "worst_penetration" in r), default=float("nan"))
+            budget = sum(r.get("stop") == "max_wall_time" for r in rr)
+            lines.append(f"| {n} | {protocol} | {len(rr)} | {sum(r['outcome'] == 'ok' for r in rr)} | "
+                         f"{sum(r['outcome'] != 'ok' for r in rr)} | {ov:.2e} | {pen:.2e} | {budget} | "
+                         f"{max(r['cpu'] for r in rr):.1f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(RECORDS / "stress"), help="folder of the per-run JSON records (resumable)")
@@ -159,6 +177,7 @@ def main(argv=None) -> int:
                     if rec is not None:
                         done.append(rec)
     print(table(done))
+    print("\n" + summary(done))
     bad = [r for r in done if r["outcome"] in ("FAIL", "error")]
     ok = [r for r in done if r["outcome"] == "ok"]
     worst_ov = max((r["worst_overlap"] for r in done if "worst_overlap" in r), default=float("nan"))
