@@ -81,6 +81,7 @@ def _fb(start, seed: int, max_wall_time: float | None = None):
     # FB draws no random numbers after the seeding: the seed acts through the Poisson start only
     return run_fb(start, FB_RATE, progress_interval=1e9, max_wall_time=max_wall_time)
 
+
 #: name -> (description, callable(start packing, seed, max_wall_time) -> RunResult)
 PROTOCOLS = {
     "ls": ("LS gamma = 1 from the Poisson start to p = 1e12",

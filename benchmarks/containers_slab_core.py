@@ -29,8 +29,8 @@ import sys
 import time
 
 import numpy as np
-from containers_common import DISTRIBUTIONS, PROTOCOLS, RECORDS, Records, brute_force, fmt_ci, provenance, start_packing, \
-    welch
+from containers_common import DISTRIBUTIONS, PROTOCOLS, RECORDS, Records, brute_force, fmt_ci, provenance, \
+    start_packing, welch
 
 MARGIN = 5.0  # core: centres this many mean diameters from both walls
 

@@ -111,8 +111,9 @@ def compare_profiles(a: list[dict], b: list[dict]) -> None:
         first = [g["minima"][0][0] for g in per if g["minima"]]
         mins = ", ".join(f"({p:.3f}, {q:.3f})" for p, q in f["minima"])
         period = "not estimable" if f["period"] is None else f"{f['period']:.3f} d"
-        print(f"    {code:10s} wall bin eps = {f['wall_bin']:.3f}, extrapolated to the wall {f['wall_extrapolated']:.3f};"
-              f" first minimum {fmt_ci(first, 3)} d; minima of the mean profile {mins}; period {period}")
+        print(f"    {code:10s} wall bin eps = {f['wall_bin']:.3f}, extrapolated to the wall "
+              f"{f['wall_extrapolated']:.3f}; first minimum {fmt_ci(first, 3)} d; minima of the mean profile {mins}; "
+              f"period {period}")
     diffs, outside = [], 0
     for k in range(m):
         d, h = welch([r["profile"]["porosity"][k] for r in a], [r["profile"]["porosity"][k] for r in b])

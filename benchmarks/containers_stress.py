@@ -129,7 +129,8 @@ def table(records: list[dict]) -> str:
 def summary(records: list[dict]) -> str:
     """One row per N and protocol: runs, outcomes, the worst overlap and penetration, the largest CPU time."""
     lines = ["| N | protocol | runs (shapes x distributions) | ok | failed, crashed or refused | worst overlap | "
-             "worst penetration | stopped by the time budget | largest CPU s |", "|---|---|---|---|---|---|---|---|---|"]
+             "worst penetration | stopped by the time budget | largest CPU s |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for n in sorted({r["n"] for r in records}):
         for protocol in PROTOCOLS:
             rr = [r for r in records if r["n"] == n and r["protocol"] == protocol]
