@@ -9,7 +9,8 @@ distribution (periodic cube, --bulk-n spheres, the same seeds).
 
 Table 1 per row: the achieved D/<d> (the container is sized from an estimate of the final phi, so it differs from the
 asked one; <d> the final number-mean diameter), the mean phi with its 95 % t-interval, the excess porosity over bulk
-(eps - eps_bulk = phi_bulk - phi, Welch 95 % interval), and the verified mean-porosity correlations of
+(eps - eps_bulk = phi_bulk - phi, Welch 95 % interval) and its product with D/<d> (constant if the excess is a wall
+layer of fixed thickness, whose share of the volume goes as 4 / (D/d)), and the verified mean-porosity correlations of
 analysis.packed_bed (Benyahia & O'Neill 2005) at the achieved D/<d>, with their excess over their own bulk limit.
 Frictionless jammed packings are denser than poured or slurry-packed beds, so only the excess compares.
 
@@ -173,8 +174,8 @@ def main(argv=None) -> int:
                 rows.append((ratio, dist, protocol, cyl, bulk))
     names = " | ".join(f"{c.name} eps | its excess over {c.bulk}" for c in CORRELATIONS)
     print(f"\n| D/d asked | D/<d> achieved | distribution | protocol | N | packings | phi (95 % CI) | bulk phi "
-          f"(95 % CI) | excess porosity eps - eps_bulk (Welch 95 %) | {names} | CPU s / packing |")
-    print("|---|---|---|---|---|---|---|---|---|" + "---|---|" * len(CORRELATIONS) + "---|")
+          f"(95 % CI) | excess porosity eps - eps_bulk (Welch 95 %) | excess x D/<d> | {names} | CPU s / packing |")
+    print("|---|---|---|---|---|---|---|---|---|---|" + "---|---|" * len(CORRELATIONS) + "---|")
     for ratio, dist, protocol, cyl, bulk in rows:
         achieved = float(np.mean([r["achieved"]["diameter"] for r in cyl]))
         phis, bphis = [r["phi"] for r in cyl], [r["phi"] for r in bulk]
@@ -183,7 +184,7 @@ def main(argv=None) -> int:
         corr = " | ".join(f"{packed_bed.mean_porosity(c.name, achieved):.4f} | "
                           f"{packed_bed.correlation_excess(c.name, achieved):+.4f}" for c in CORRELATIONS)
         print(f"| {ratio} | {achieved:.3f} | {DISTRIBUTIONS[dist]} | {protocol} | {CYLINDER_N[ratio]} | {len(cyl)} |"
-              f" {fmt_ci(phis, 4)} | {fmt_ci(bphis, 4) if bulk else '-'} | {excess} | {corr} |"
+              f" {fmt_ci(phis, 4)} | {fmt_ci(bphis, 4) if bulk else '-'} | {excess} | {m * achieved:.3f} | {corr} |"
               f" {mean_ci([r['cpu'] for r in cyl])[0]:.1f} |")
     worst = max((max(r["worst_overlap"], r["worst_penetration"]) for *_, c, b in rows for r in c + b),
                 default=float("nan"))
