@@ -16,7 +16,8 @@ Frictionless jammed packings are denser than poured or slurry-packed beds, so on
 
 Table 2 per row: the exact radial porosity profile of each packing (analysis.profiles, bins of 0.025 d, stored in its
 record) against the issue's criteria (containers_common.profile_features): porosity 1 at the wall, first minimum at
-0.5 +- 0.1 d, period about 1 d, |eps - eps_core| < 0.03 beyond 5 d (D/d = 20 only: no narrower cylinder has a core).
+0.5 +- 0.1 d, period about 1 d, |eps - eps_core| < 0.03 beyond 5 d (D/d = 20 only: no narrower cylinder has a core
+holding 5 % of its volume).
 ``--figure PNG`` draws the mean profiles and the excess porosity against D/d.
 
 One JSON record per packing in --out (default: the committed benchmarks/records/containers/cylinders); runs present
@@ -24,7 +25,7 @@ are skipped, so the matrix resumes; ``--table-only`` rebuilds the tables from th
 
     python benchmarks/containers_cylinders.py --protocols ls fb          # the cheap rows first
     python benchmarks/containers_cylinders.py                            # all rows, 10 seeds (resumes)
-    python benchmarks/containers_cylinders.py --table-only --figure docs/img/containers_cylinders.png
+    python benchmarks/containers_cylinders.py --table-only --figure benchmarks/records/containers/cylinders.png
 """
 
 from __future__ import annotations
