@@ -18,9 +18,14 @@ import numpy as np
 from spherejam.core.atomic import atomic_output
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.closest_jamming import find_closest_jamming
+from spherejam.engines.force_biased import run_fb
 from spherejam.engines.lubachevsky_stillinger import run_ls
 
 LIMIT = 1e-10
+
+#: The committed raw records of the acceptance benchmarks (one small JSON per run): every table of
+#: docs/containers_acceptance.md is rebuilt from them by the scripts' ``--table-only``.
+RECORDS = Path(__file__).resolve().parent / "records" / "containers"
 
 #: Size distributions of the stress matrix: label -> psd spec (docs/psd.md). "Bidisperse 1:4" is taken with equal
 #: numbers of each size, so that every N down to 20 holds both sizes and a periodic edge of a few diameters still
@@ -58,7 +63,7 @@ SHAPES = {
 }
 
 
-# --- protocols: one entry each (FB joins as one more entry when it has walls) ---------------------------------------
+# --- protocols: one entry each -------------------------------------------------------------------------------------
 def _ls(start, seed: int, rate: float = 1.0, max_wall_time: float | None = None):
     return run_ls(start, rate, seed=seed, progress_interval=1e9, max_wall_time=max_wall_time)
 
@@ -68,12 +73,23 @@ def _mls(start, seed: int, max_wall_time: float | None = None):
                                 progress_interval=1e9, max_wall_time=max_wall_time)
 
 
+#: FB's contraction rate: the fast end of the paper's range, nominal density 0.60 by its rule (docs/algorithms.md §4.5)
+FB_RATE = 1e-3
+
+
+def _fb(start, seed: int, max_wall_time: float | None = None):
+    # FB draws no random numbers after the seeding: the seed acts through the Poisson start only
+    return run_fb(start, FB_RATE, progress_interval=1e9, max_wall_time=max_wall_time)
+
+
 #: name -> (description, callable(start packing, seed, max_wall_time) -> RunResult)
 PROTOCOLS = {
     "ls": ("LS gamma = 1 from the Poisson start to p = 1e12",
            lambda start, seed, budget=None: _ls(start, seed, 1.0, budget)),
     "mls": ("MLS gamma_0 = 10, f = 2, gamma_f = 1e-2 from the Poisson start",
             lambda start, seed, budget=None: _mls(start, seed, budget)),
+    "fb": (f"FB gamma = {FB_RATE:g} (nominal phi 0.60) from the Poisson start to outer = inner",
+           lambda start, seed, budget=None: _fb(start, seed, budget)),
 }
 
 
@@ -135,6 +151,73 @@ def brute_force(positions: np.ndarray, diameters: np.ndarray, container, chunk: 
             "worst_penetration": float(pen[j]), "penetration_sphere": j}
 
 
+# --- porosity profiles ---------------------------------------------------------------------------------------------
+#: Bin width of the recorded profiles, in mean diameters (fine enough to place the first minimum within 0.0125 d).
+PROFILE_BIN = 0.025
+#: The core: the region at least this many mean diameters from every wall (the issue's "beyond 5 d").
+CORE_DISTANCE = 5.0
+
+
+def profile_record(packing, bin_width: float = PROFILE_BIN) -> dict:
+    """The packing's exact porosity profile (analysis.profiles.profile: radial in a cylinder or a sphere, folded axial
+    in a slab or a box) as plain lists, with each bin's share of the container's volume (to rebin it), and the core
+    phi (None when the container has no point CORE_DISTANCE from every wall)."""
+    from spherejam.analysis import profiles
+
+    pr = profiles.profile(packing, bin_width)
+    co = profiles.core(packing, CORE_DISTANCE)
+    share = pr.volume / pr.volume.sum()
+    return {"profile": {"kind": pr.kind, "bin_width": bin_width, "extent": float(pr.edges[-1]),
+                        "porosity": [round(float(e), 6) for e in pr.porosity],
+                        "volume_share": [float(f"{v:.6g}") for v in share]},
+            "core_phi": co.phi if co.volume > 0 else None, "core_fraction": co.fraction_of_container}
+
+
+def mean_profile(records: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bin centres (mean diameters from the wall), the porosity averaged over the records' profiles, and the bins'
+    volume shares, over the bins all of them have (their extents differ by the achieved size)."""
+    m = min(len(r["profile"]["porosity"]) for r in records)
+    w = records[0]["profile"]["bin_width"]
+    eps = np.mean([r["profile"]["porosity"][:m] for r in records], axis=0)
+    share = np.mean([r["profile"]["volume_share"][:m] for r in records], axis=0)
+    return (np.arange(m) + 0.5) * w, eps, share
+
+
+def profile_features(centres: np.ndarray, eps: np.ndarray, share: np.ndarray, eps_core: float | None,
+                     shell: float = 0.5) -> dict:
+    """The issue's criteria of a porosity profile measured from the wall:
+
+    * ``wall_bin``: the porosity of the first bin; ``wall_extrapolated``: 1.5 eps_1 - 0.5 eps_2, the linear
+      extrapolation to the wall (a sphere touching a wall cuts a plane at distance z in a disc of area ~ pi d z, so the
+      solid fraction rises linearly from 0 at the wall);
+    * ``minima``: the first minimum, the lowest bin between 0.2 and 1.0 d, then each next one the lowest bin between
+      0.6 and 1.4 d beyond the previous (while that window lies in the profile); ``period``: their mean spacing;
+    * ``core_deviation``: beyond CORE_DISTANCE, the largest |eps - eps_core| over shells of ``shell`` d (bins merged
+      by volume: single 0.025 d bins near a cylinder's axis hold a fraction of a sphere and are noise, not structure);
+      None without a core."""
+    w = centres[1] - centres[0]
+    out = {"wall_bin": float(eps[0]), "wall_extrapolated": float(1.5 * eps[0] - 0.5 * eps[1])}
+    minima, lo, hi = [], 0.2, 1.0
+    while hi <= centres[-1] + 0.5 * w and len(minima) < 5:
+        sel = (centres >= lo) & (centres <= hi)
+        if not sel.any():
+            break
+        k = int(np.flatnonzero(sel)[np.argmin(eps[sel])])
+        minima.append((float(centres[k]), float(eps[k])))
+        lo, hi = centres[k] + 0.6, centres[k] + 1.4
+    out["minima"] = minima
+    out["period"] = float(np.mean(np.diff([x for x, _ in minima]))) if len(minima) >= 2 else None
+    out["core_deviation"] = None
+    if eps_core is not None and centres[-1] > CORE_DISTANCE + shell:
+        far = centres > CORE_DISTANCE
+        groups = np.floor((centres[far] - CORE_DISTANCE) / shell).astype(int)
+        solid = (1.0 - eps[far]) * share[far]
+        dev = [abs(1.0 - solid[groups == g].sum() / share[far][groups == g].sum() - eps_core)
+               for g in np.unique(groups) if (groups == g).sum() * w >= 0.99 * shell]
+        out["core_deviation"] = float(max(dev)) if dev else None
+    return out
+
+
 # --- resumable records ---------------------------------------------------------------------------------------------
 class Records:
     """One JSON file per run in ``folder``; a run whose file exists is skipped (resumption)."""
@@ -152,7 +235,7 @@ class Records:
 
     def put(self, key: str, record: dict) -> None:
         with atomic_output(self.path(key), ".json") as tmp:
-            Path(tmp).write_text(json.dumps(record, indent=1, default=float))
+            Path(tmp).write_text(json.dumps(record, separators=(",", ":"), default=float) + "\n")
 
 
 def provenance() -> dict:

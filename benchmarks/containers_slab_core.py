@@ -14,10 +14,11 @@ diameter, H the achieved height). Its phi is estimated two ways:
     unbiased in a homogeneous layer, noisier).
 
 Printed per protocol: the slab's core phi, the whole slab's phi and the periodic phi_J (mean, 95 % t-interval over
-seeds), and the difference core - periodic with its Welch 95 % interval. One JSON record per run in --out.
+seeds), and the difference core - periodic with its Welch 95 % interval. One JSON record per run in --out (default:
+the committed benchmarks/records/containers/slab_core).
 
-    python benchmarks/containers_slab_core.py --out runs/slab_core --seeds 5
-    python benchmarks/containers_slab_core.py --out runs/slab_core --seeds 10 --psd sigma0.3
+    python benchmarks/containers_slab_core.py --seeds 5 --protocols ls mls
+    python benchmarks/containers_slab_core.py --table-only
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ import sys
 import time
 
 import numpy as np
-from containers_common import DISTRIBUTIONS, PROTOCOLS, Records, brute_force, fmt_ci, provenance, start_packing, \
-    welch
+from containers_common import DISTRIBUTIONS, PROTOCOLS, RECORDS, Records, brute_force, fmt_ci, provenance, \
+    start_packing, welch
 
 MARGIN = 5.0  # core: centres this many mean diameters from both walls
 
@@ -74,7 +75,8 @@ def run(kind: str, protocol: str, dist: str, n: int, height: float, seed: int) -
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--out", default=str(RECORDS / "slab_core"), help="folder of the per-run JSON records "
+                    "(resumable; default: the committed benchmarks/records/containers/slab_core)")
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--n", type=int, default=2200, help="N of both the slab and the periodic cube")
     ap.add_argument("--height", type=float, default=30.0, help="slab height in mean diameters (>= 30 for the issue)")
@@ -102,6 +104,9 @@ def main(argv=None) -> int:
                     status = 1
                 recs[kind].append(rec)
         slab, per = recs["slab"], recs["periodic"]
+        if not slab or not per:
+            print(f"\n{protocol}: no records")
+            continue
         print(f"\n{protocol} ({PROTOCOLS[protocol][0]}), {DISTRIBUTIONS[args.psd]}, N = {args.n}, slab height "
               f"{np.mean([r['height'] for r in slab]):.2f} <d> (achieved), core {MARGIN:g} <d> from each wall "
               f"({np.mean([r['core_thickness'] for r in slab]):.2f} <d> thick, "

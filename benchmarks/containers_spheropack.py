@@ -11,7 +11,9 @@ constant rate until the mean reduced pressure PV/(NkT) exceeds 1e12 (ours: LS wi
 (docs/algorithms.md §2, T = 0.2), spheropack's Gamma = (d<d>/dt) / sqrt(kT/m); the same Gamma is gamma / sqrt(0.2).
 
 For each seed the two codes run one after the other in this process (order alternating by seed), each timed by
-its own CPU time (time.process_time: the machine is shared). Printed per container: phi (mean, 95 % t-interval over
+its own CPU time (time.process_time: the machine is shared). Both codes' packings get the same exact porosity profile
+(containers_common.profile_record: radial in the cylinder, folded axial in the slab), compared bin by bin over seeds
+(compare_profiles). Printed per container: phi (mean, 95 % t-interval over
 seeds) of each code and their difference, the achieved D/<d> (or H/<d>), collisions per CPU second of each code
 (spheropack's own count ``Packing.n_collisions``, which includes sphere-wall collisions; ours: the engine's pair
 collisions plus its wall collisions, summed over the windows) and their ratio, the CPU time to jam and its ratio.
@@ -30,8 +32,10 @@ import sys
 import time
 
 import numpy as np
-from containers_common import Records, brute_force, fmt_ci, mean_ci, provenance
+from containers_common import RECORDS, Records, brute_force, fmt_ci, mean_ci, mean_profile, profile_features, \
+    profile_record, provenance, welch
 
+from spherejam.core.packing import Packing
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.lubachevsky_stillinger import run_ls
 
@@ -60,7 +64,7 @@ def ours(spec: str, seed: int, rate: float) -> dict:
             "wall_collisions": walls[0], "cpu": cpu, "stop": r.stats.stop_reason,
             "reduced_pressure": q.metadata.get("reduced_pressure"),
             "achieved": q.container.in_diameters(q.mean_diameter),
-            "window_temperature_median": float(np.median(temps)), **check}
+            "window_temperature_median": float(np.median(temps)), **check, **profile_record(q)}
 
 
 def container_of(spec: str):
@@ -85,14 +89,48 @@ def theirs(spec: str, seed: int, big_gamma: float) -> dict:
     check = brute_force(np.asarray(p.positions, dtype=float), d, c)
     mean_d = float(d.mean())
     achieved = ({"diameter": 2.0 * c.radius / mean_d} if c.curved else {"height": c.lengths[2] / mean_d})
+    # its centres in our frame (the same container, the same origin): the same exact profile as ours
+    q = Packing(np.asarray(p.positions, dtype=float), d, math.nan, container=c)
     return {"phi": float(p.density), "collisions": int(p.n_collisions), "events": int(p.n_events), "cpu": cpu,
             "stop": str(p.status), "reduced_pressure": float(p.reduced_pressure), "achieved": achieved,
-            "shrink_factor": float(p.shrink_factor), "min_gap": float(p.min_gap), **check}
+            "shrink_factor": float(p.shrink_factor), "min_gap": float(p.min_gap), **check, **profile_record(q)}
+
+
+def compare_profiles(a: list[dict], b: list[dict]) -> None:
+    """Our exact porosity profiles against spheropack's (the same function on both codes' centres): each code's
+    criteria on its mean profile, and per bin the Welch difference over seeds; if the two agree, about 5 % of the
+    bins have a 95 % interval that excludes 0."""
+    xa, ea, sa = mean_profile(a)
+    xb, eb, sb = mean_profile(b)
+    m = min(len(xa), len(xb))
+    kind = a[0]["profile"]["kind"]
+    print(f"  porosity profile ({kind}, distance from the wall in <d>, bins of {a[0]['profile']['bin_width']:g} d):")
+    for code, rr, (x, e, s) in (("ours", a, (xa, ea, sa)), ("spheropack", b, (xb, eb, sb))):
+        f = profile_features(x, e, s, None)
+        per = [profile_features(*mean_profile([r]), None) for r in rr]
+        first = [g["minima"][0][0] for g in per if g["minima"]]
+        mins = ", ".join(f"({p:.3f}, {q:.3f})" for p, q in f["minima"])
+        period = "not estimable" if f["period"] is None else f"{f['period']:.3f} d"
+        print(f"    {code:10s} wall bin eps = {f['wall_bin']:.3f}, extrapolated to the wall "
+              f"{f['wall_extrapolated']:.3f}; first minimum {fmt_ci(first, 3)} d; minima of the mean profile {mins}; "
+              f"period {period}")
+    diffs, outside = [], 0
+    for k in range(m):
+        d, h = welch([r["profile"]["porosity"][k] for r in a], [r["profile"]["porosity"][k] for r in b])
+        diffs.append(d)
+        outside += h is not None and abs(d) > h
+    diffs = np.asarray(diffs)
+    k = int(np.argmax(np.abs(diffs)))
+    print(f"    ours - spheropack per bin: largest |difference| {abs(diffs[k]):.4f} at {xa[k]:.3f} d; "
+          f"{outside} of {m} bins ({100 * outside / m:.0f} %) with a Welch 95 % interval excluding 0; "
+          f"mean difference over the first 1 d {diffs[xa[:m] < 1.0].mean():+.4f}, beyond 1 d "
+          f"{diffs[xa[:m] >= 1.0].mean():+.4f}")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", required=True, help="folder of the per-run JSON records (resumable)")
+    ap.add_argument("--out", default=str(RECORDS / "spheropack"), help="folder of the per-run JSON records "
+                    "(resumable; default: the committed benchmarks/records/containers/spheropack)")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--rate", type=float, default=0.1, help="our LS gamma (spheropack: gamma / sqrt(0.2))")
     ap.add_argument("--table-only", action="store_true", help="summarise the records present; run nothing")
@@ -118,6 +156,8 @@ def main(argv=None) -> int:
             for code in order:
                 k = f"{name}_{code}_g{args.rate:g}_s{seed}"
                 rec = store.get(k)
+                if rec is not None and "profile" not in rec and not args.table_only:
+                    rec = None  # from before the profiles were recorded: both codes are run again in this run
                 if rec is None and args.table_only:
                     continue
                 if rec is None:
@@ -159,6 +199,8 @@ def main(argv=None) -> int:
         t_ratio = sum(r["cpu"] for r in a) / sum(r["cpu"] for r in b)
         print(f"  CPU time to jam, ours / spheropack = {t_ratio:.2f}; collisions to jam, ours / spheropack = "
               f"{sum(r['collisions'] for r in a) / sum(r['collisions'] for r in b):.2f}", flush=True)
+        if all("profile" in r for r in a + b):
+            compare_profiles(a, b)
     return status
 
 

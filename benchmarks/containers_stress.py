@@ -2,18 +2,19 @@
 
 Every shape (slab, closed box, periodic cylinder, capped cylinder, sphere, non-cubic periodic box) x size distribution
 (monodisperse, log-normal sigma = 0.3, bidisperse 1:4) x N (20, 500, 5000) x protocol (the table PROTOCOLS of
-containers_common: LS, MLS; FB joins there as one entry). Each output is checked by brute force (containers_common.
+containers_common: LS, MLS, FB). Each output is checked by brute force (containers_common.
 brute_force: all pairs, images along periodic axes only, chunked), and must have a worst relative overlap and a
 worst relative wall penetration <= 1e-10.
 
 Each container is sized from N (containers_common.SHAPES: about the cube side s of N spheres at phi = 0.62). One JSON
-record per run in --out; a run whose record exists is skipped, so an interrupted matrix resumes where it stopped.
+record per run in --out (default: the committed benchmarks/records/containers/stress); a run whose record exists is
+skipped, so an interrupted matrix resumes where it stopped.
 Prints the table (shape x distribution x N x protocol: worst overlap, worst penetration, phi, stop reason, CPU s).
 
-    python benchmarks/containers_stress.py --out runs/stress --n 20 500
-    python benchmarks/containers_stress.py --out runs/stress --n 5000 --protocols ls
-    python benchmarks/containers_stress.py --out runs/stress --table-only      # print what is there
-    python benchmarks/containers_stress.py --out runs/stress --narrow          # the NARROW containers (minutes)
+    python benchmarks/containers_stress.py --n 20 500
+    python benchmarks/containers_stress.py --n 5000 --max-wall 3000
+    python benchmarks/containers_stress.py --table-only      # print what is there
+    python benchmarks/containers_stress.py --narrow          # the NARROW containers (minutes)
 """
 
 from __future__ import annotations
@@ -24,8 +25,8 @@ import sys
 import time
 import traceback
 
-from containers_common import DISTRIBUTIONS, LIMIT, PROTOCOLS, SHAPES, Records, brute_force, cube_side, provenance, \
-    start_packing
+from containers_common import DISTRIBUTIONS, LIMIT, PROTOCOLS, RECORDS, SHAPES, Records, brute_force, cube_side, \
+    provenance, start_packing
 
 from spherejam.core.errors import InputError
 
@@ -125,9 +126,28 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def summary(records: list[dict]) -> str:
+    """One row per N and protocol: runs, outcomes, the worst overlap and penetration, the largest CPU time."""
+    lines = ["| N | protocol | runs (shapes x distributions) | ok | failed, crashed or refused | worst overlap | "
+             "worst penetration | stopped by the time budget | largest CPU s |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for n in sorted({r["n"] for r in records}):
+        for protocol in PROTOCOLS:
+            rr = [r for r in records if r["n"] == n and r["protocol"] == protocol]
+            if not rr:
+                continue
+            ov = max((r["worst_overlap"] for r in rr if "worst_overlap" in r), default=float("nan"))
+            pen = max((r["worst_penetration"] for r in rr if "worst_penetration" in r), default=float("nan"))
+            budget = sum(r.get("stop") == "max_wall_time" for r in rr)
+            lines.append(f"| {n} | {protocol} | {len(rr)} | {sum(r['outcome'] == 'ok' for r in rr)} | "
+                         f"{sum(r['outcome'] != 'ok' for r in rr)} | {ov:.2e} | {pen:.2e} | {budget} | "
+                         f"{max(r['cpu'] for r in rr):.1f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", required=True, help="folder of the per-run JSON records (resumable)")
+    ap.add_argument("--out", default=str(RECORDS / "stress"), help="folder of the per-run JSON records (resumable)")
     ap.add_argument("--shapes", nargs="+", default=list(SHAPES), choices=list(SHAPES))
     ap.add_argument("--dists", nargs="+", default=list(DISTRIBUTIONS), choices=list(DISTRIBUTIONS))
     ap.add_argument("--n", nargs="+", type=int, default=[20, 500, 5000])
@@ -158,6 +178,7 @@ def main(argv=None) -> int:
                     if rec is not None:
                         done.append(rec)
     print(table(done))
+    print("\n" + summary(done))
     bad = [r for r in done if r["outcome"] in ("FAIL", "error")]
     ok = [r for r in done if r["outcome"] == "ok"]
     worst_ov = max((r["worst_overlap"] for r in done if "worst_overlap" in r), default=float("nan"))
