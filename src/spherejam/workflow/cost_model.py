@@ -321,7 +321,7 @@ def plan(config: dict) -> dict[int | str, dict[str, dict[str, float]]]:
                  (n, where, "mls", None, {**mls_kw, **load})]
         if config.get("analysis", {}).get("enabled", False):
             jobs.append((n, where, "analyze", None, {}))
-        if config.get("calippso", {}).get("enabled", False) and exp.certifies(run):
+        if exp.certifies(run):
             jobs.append((n, where, "calippso", None, {}))
     for g in exp.grid_runs():
         n = exp.size(g.source)
