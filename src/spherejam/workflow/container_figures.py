@@ -3,8 +3,7 @@
 * ``containers``: the closest jamming density phi_J against the achieved D/<d> of every cylinder, beside the bulk
   (the periodic cube) and the packed-bed correlations of :mod:`spherejam.analysis.packed_bed`; below, the excess
   porosity over bulk, each with its own bulk, which is what compares (frictionless jammed packings are denser than
-  poured beds). Verified correlations are solid lines; unverified ones (formulas not read in their papers) are
-  dashed grey and labelled so.
+  poured beds). Only correlations whose formulas were read in their papers are drawn (``verified``).
 * ``profiles``: the porosity profile from the wall (radial in a cylinder or a sphere, from the nearer wall in a
   slab or a box), the mean over each container's jammed packings, exact sphere-shell volumes
   (:mod:`spherejam.analysis.profiles`), with the bulk porosity.
@@ -119,23 +118,20 @@ def containers(ds):
     verified = [n for n, c in CORRELATIONS.items() if c.kind == "mean" and c.verified]
     reference = [1.0 - mean_porosity(n, grid[grid > CORRELATIONS[n].ratio_range[0]]) for n in verified]
     reference_excess = [correlation_excess(n, grid[grid > CORRELATIONS[n].ratio_range[0]]) for n in verified]
-    dashes = iter(("--", ":", "-."))
+    # only correlations whose formulas were checked against their papers (analysis/packed_bed.py): a formula not
+    # read from its paper is no yardstick, even drawn apart
     for name, c in CORRELATIONS.items():
-        if c.kind != "mean":
+        if c.kind != "mean" or not c.verified:
             continue
         lo, hi = c.ratio_range
         r = grid[(grid > lo) & (grid <= hi)]
-        eps = mean_porosity(name, r, allow_unverified=True)
-        excess = correlation_excess(name, r, allow_unverified=True)
         label = c.reference.split(",")[0].split(" (")[0] + " " + c.reference.split("(")[-1].split(")")[0][-4:]
-        style = {"color": "k", "lw": 1.4} if c.verified else {"color": "0.5", "lw": 1.0, "ls": next(dashes)}
-        tag = "" if c.verified else " (unverified formula)"
-        ax.plot(r, 1.0 - eps, **style, label=f"{label}: poured beds{tag}")
-        ax2.plot(r, excess, **style, label=f"{label}{tag}")
+        ax.plot(r, 1.0 - mean_porosity(name, r), color="k", lw=1.4, label=f"{label}: poured beds")
+        ax2.plot(r, correlation_excess(name, r), color="k", lw=1.4, label=label)
     if not drawn:
         ax.text(0.5, 0.5, "no cylinder with completed MLS runs", ha="center", va="center", transform=ax.transAxes,
                 color="0.5")
-    # the axes fit our packings and the verified correlations (an unverified one may run off them at small D/d)
+    # the axes fit our packings and the correlations
     lows = [min(ours_phi, default=0.6)] + [float(r.min()) for r in reference]
     highs = [max(ours_phi, default=0.6)] + [float(r.max()) for r in reference]
     ax.set_ylim(max(min(lows) - 0.02, 0.0), min(max(highs) + 0.02, 0.75))
@@ -192,16 +188,13 @@ def profiles(ds):
         ratio = float(np.nanmean(size[sel]))
         if specs[k].startswith("cylinder") and math.isfinite(ratio):
             for name, c in CORRELATIONS.items():
-                if c.kind != "radial":
+                if c.kind != "radial" or not c.verified:  # as in the containers figure
                     continue
                 try:
-                    eps = radial_porosity(name, distance[keep], ratio, allow_unverified=True)
+                    eps = radial_porosity(name, distance[keep], ratio)
                 except InputError:
                     continue
-                style = ({"color": "k", "lw": 1.0} if c.verified else
-                         {"color": "0.5", "lw": 0.9, "ls": "--" if name == "de_klerk" else ":"})
-                ax.plot(distance[keep], eps, **style,
-                        label=f"{c.reference.split(',')[0]}{'' if c.verified else ' (unverified formula)'}")
+                ax.plot(distance[keep], eps, color="k", lw=1.0, label=c.reference.split(",")[0])
         where = "radial, from the wall" if specs[k].startswith(("cylinder", "sphere")) else "from the nearer wall"
         ax.set_title(f"{k}: {specs[k]} (achieved D/⟨d⟩ = {ratio:.2f}); {where}" if math.isfinite(ratio)
                      else f"{k}: {specs[k]}; {where}", fontsize=8.5)
