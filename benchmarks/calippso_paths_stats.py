@@ -49,7 +49,8 @@ SAME = 1e-9
 def mls_inputs(count: int) -> list[tuple[str, str]]:
     """``count`` archived N = 1000 MLS outputs, shared out over the protocol x sigma cells and, within a cell, spread
     evenly over its compression rates (name, path)."""
-    cells = sorted({Path(p).parent.parent.parent for p in glob.glob(str(ARCHIVE / "*" / "*" / "*" / "r0" / "jammed.h5"))})
+    outputs = glob.glob(str(ARCHIVE / "*" / "*" / "*" / "r0" / "jammed.h5"))
+    cells = sorted({Path(p).parent.parent.parent for p in outputs})
     chosen = []
     for k, cell in enumerate(cells):
         files = sorted(glob.glob(str(cell / "*" / "r0" / "jammed.h5")))
@@ -130,10 +131,11 @@ def summarize(out: Path) -> None:
         for p in [first] + [q for q in paths if q != first]:
             rs = list(recs[p].values())
             common = sorted(set(recs[p]) & set(recs[first]))
+            def mean_ratio(key):
+                return np.mean([recs[p][i][key] for i in common]) / np.mean([recs[first][i][key] for i in common])
+
             ratio = "(first)" if p == first else (
-                f"{np.mean([recs[p][i]['lps'] for i in common]) / np.mean([recs[first][i]['lps'] for i in common]):.2f}, "
-                f"{np.mean([recs[p][i]['cpu_s'] for i in common]) / np.mean([recs[first][i]['cpu_s'] for i in common]):.2f}"
-                f" (n = {len(common)})")
+                f"{mean_ratio('lps'):.2f}, {mean_ratio('cpu_s'):.2f} (n = {len(common)})")
             median = "(first)" if p == first else (
                 f"{np.median([recs[p][i]['lps'] / recs[first][i]['lps'] for i in common]):.2f}, "
                 f"{np.median([recs[p][i]['cpu_s'] / recs[first][i]['cpu_s'] for i in common]):.2f}")

@@ -209,7 +209,8 @@ def dataset_cost_markdown(paths: list[Path]) -> str:
             totals[stage] += h
         lines.append(f"| {n} | {dist} | {count} | " + " | ".join(f"{h:.2f}" for h in hours.values())
                      + f" | {sum(hours.values()):.2f} |")
-    lines.append("| total | | | " + " | ".join(f"{h:.2f}" for h in totals.values()) + f" | {sum(totals.values()):.2f} |")
+    lines.append("| total | | | " + " | ".join(f"{h:.2f}" for h in totals.values())
+                 + f" | {sum(totals.values()):.2f} |")
     return "\n".join(lines)
 
 
