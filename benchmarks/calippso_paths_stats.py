@@ -114,6 +114,11 @@ def paired(a: list[float], b: list[float]) -> str:
     return f"{mean:+.3g}, 95 % CI [{mean - half:+.3g}, {mean + half:+.3g}]; {w} (n = {n})"
 
 
+def _mean_ratio(other: dict, first: dict, inputs: list[str], key: str) -> float:
+    """The mean of ``key`` over ``inputs`` for one path, over the same mean for the first."""
+    return float(np.mean([other[i][key] for i in inputs]) / np.mean([first[i][key] for i in inputs]))
+
+
 def summarize(out: Path) -> None:
     for group in SETS:
         recs: dict[str, dict[str, dict]] = {}
@@ -131,11 +136,9 @@ def summarize(out: Path) -> None:
         for p in [first] + [q for q in paths if q != first]:
             rs = list(recs[p].values())
             common = sorted(set(recs[p]) & set(recs[first]))
-            def mean_ratio(key):
-                return np.mean([recs[p][i][key] for i in common]) / np.mean([recs[first][i][key] for i in common])
-
             ratio = "(first)" if p == first else (
-                f"{mean_ratio('lps'):.2f}, {mean_ratio('cpu_s'):.2f} (n = {len(common)})")
+                f"{_mean_ratio(recs[p], recs[first], common, 'lps'):.2f}, "
+                f"{_mean_ratio(recs[p], recs[first], common, 'cpu_s'):.2f} (n = {len(common)})")
             median = "(first)" if p == first else (
                 f"{np.median([recs[p][i]['lps'] / recs[first][i]['lps'] for i in common]):.2f}, "
                 f"{np.median([recs[p][i]['cpu_s'] / recs[first][i]['cpu_s'] for i in common]):.2f}")
