@@ -31,19 +31,16 @@ from spherejam.workflow import cost_model  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: docs/psd.md §8: row -> (spec, N, measured CPU minutes of the row's `spherejam rcp` call, 5 LS + 5 FB fast
-#: packings, each then MLS and CALiPPSO; measured 2026-12-02 with the code of commit a47c0a6's day).
-PSD_ROWS = {
-    "mono600": ("lognormal:sigma=0", 600, 26.4),
-    "powder": ("table:examples/powder.csv", 600, 32.2),
-    "bi14": ("bidisperse:ratio=1.4,small=0.5,by=number", 600, 22.1),
-    "mono300": ("lognormal:sigma=0", 300, 9.0),
-    "bi2": ("bidisperse:ratio=2,small=0.3,by=volume", 300, 11.3),
-    "bi4": ("bidisperse:ratio=4,small=0.3,by=volume", 300, 30.5),
-    "gauss01": ("gaussian:delta=0.1", 300, 8.6),
-    "gauss02": ("gaussian:delta=0.2", 300, 11.9),
-    "uniform2": ("uniform:ratio=2", 300, 10.4),
-}
+def _psd_rows(path: Path) -> dict[str, tuple[str, int, float]]:
+    import csv
+
+    with open(path, newline="") as f:
+        rows = csv.DictReader(line for line in f if not line.startswith("#"))
+        return {r["row"]: (r["spec"], int(r["n"]), float(r["cpu_minutes"])) for r in rows}
+
+
+#: The PSD acceptance rows, row -> (spec, N, measured CPU minutes) (docs/psd.md §8).
+PSD_ROWS = _psd_rows(ROOT / "benchmarks" / "records" / "psd_acceptance_cpu.csv")
 
 
 def psd_row_minutes(spec: str, n: int) -> float:

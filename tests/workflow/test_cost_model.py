@@ -247,19 +247,16 @@ def test_cost_command_prints_the_plan(tmp_path, capsys):
 #: Size ratio -> slow-down.
 MEASURED_SLOWDOWN = {1.4: 1.048, 2.0: 1.211, 3.0: 1.557, 4.0: 2.016, 5.0: 2.451, 10.0: 8.171}
 
-#: docs/psd.md §8: row -> (spec, N, recorded CPU minutes of its `spherejam rcp` call: 5 LS + 5 FB fast packings, each
-#: then MLS and CALiPPSO; measured on 2026-12-02 with the code of that day, commit a47c0a6).
-PSD_ROWS = {
-    "mono600": ("lognormal:sigma=0", 600, 26.4),
-    "powder": ("table:examples/powder.csv", 600, 32.2),
-    "bi14": ("bidisperse:ratio=1.4,small=0.5,by=number", 600, 22.1),
-    "mono300": ("lognormal:sigma=0", 300, 9.0),
-    "bi2": ("bidisperse:ratio=2,small=0.3,by=volume", 300, 11.3),
-    "bi4": ("bidisperse:ratio=4,small=0.3,by=volume", 300, 30.5),
-    "gauss01": ("gaussian:delta=0.1", 300, 8.6),
-    "gauss02": ("gaussian:delta=0.2", 300, 11.9),
-    "uniform2": ("uniform:ratio=2", 300, 10.4),
-}
+def _psd_rows(path: Path) -> dict[str, tuple[str, int, float]]:
+    import csv
+
+    with open(path, newline="") as f:
+        rows = csv.DictReader(line for line in f if not line.startswith("#"))
+        return {r["row"]: (r["spec"], int(r["n"]), float(r["cpu_minutes"])) for r in rows}
+
+
+#: The PSD acceptance rows, row -> (spec, N, recorded CPU minutes) (docs/psd.md §8; one file with cost_fit.py).
+PSD_ROWS = _psd_rows(Path(__file__).resolve().parents[2] / "benchmarks" / "records" / "psd_acceptance_cpu.csv")
 #: Rows the model prices outside +-30 % whatever the distribution: at N = 300 it prices equal spheres at 12.7
 #: CPU-minutes, 1.41 x the mono row's 9.0 (below N = 10^3 the MLS size factor is held at its N = 10^3 value;
 #: docs/algorithms.md §7.5). Strict: the test fails if one of them comes within 30 %.

@@ -146,6 +146,13 @@ def atomic_output(path: str | os.PathLike, suffix: str = ""):
         raise
 
 
+def _fresh_folder_beside(folder: Path) -> Path:
+    """A new, empty temporary folder in ``folder``'s parent (created if missing), named after ``folder``."""
+    with _write_errors(folder):
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        return Path(tempfile.mkdtemp(prefix=temp_prefix(folder), suffix=".tmp", dir=folder.parent))
+
+
 @contextlib.contextmanager
 def atomic_folder(folder: str | os.PathLike, names: Iterable[str]):
     """Yield a temporary folder; write the files ``names`` into it. On success they replace those in ``folder``
@@ -153,9 +160,7 @@ def atomic_folder(folder: str | os.PathLike, names: Iterable[str]):
     error the temporary folder is deleted and ``folder`` is as it was (a missing one is not created)."""
     folder = Path(os.path.realpath(folder))
     names = tuple(names)
-    with _write_errors(folder):
-        folder.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(folder), suffix=".tmp", dir=folder.parent))
+    tmp = _fresh_folder_beside(folder)
     try:
         with _write_errors(folder):
             yield tmp
@@ -186,9 +191,7 @@ def replaced_folder(folder: str | os.PathLike):
     existing ``folder`` may be replaced (:mod:`spherejam.workflow.archive` checks its manifest). On error or a
     signal the temporary folder is deleted and ``folder`` is as it was."""
     folder = Path(os.path.realpath(folder))  # a symlink is followed: its target is replaced, the link stays
-    with _write_errors(folder):
-        folder.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(folder), suffix=".tmp", dir=folder.parent))
+    tmp = _fresh_folder_beside(folder)
     try:
         with _write_errors(folder):
             yield tmp

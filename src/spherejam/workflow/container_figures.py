@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .dataset import container_keys, with_distributions
+from .plotting import pyplot
 from .tables import completed_phi_J
 
 #: Figures of an experiment with containers (part of ``all`` only when it has a container other than the cube).
@@ -26,14 +27,8 @@ CONTAINER_FIGURES = ("containers", "profiles")
 PROTOCOL_MARKERS = {"ls": "o", "fb": "s"}
 
 
-def _plt():
-    from .figures import _plt as plt
-
-    return plt()
-
-
 def _no_containers(name: str):
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 2.5))
     ax.text(0.5, 0.5, f"{name}: this experiment has no container with walls (containers: in its config)",
             ha="center", va="center", transform=ax.transAxes, color="0.5")
@@ -64,7 +59,7 @@ def containers(ds):
     if not container_keys(ds):
         return _no_containers("containers")
     ds = with_distributions(ds)
-    plt = _plt()
+    plt = pyplot()
     specs = _specs(ds)
     phi_j = completed_phi_J(ds)
     container = ds["container"].values.astype(str)
@@ -162,7 +157,7 @@ def profiles(ds):
     walled = [k for k in keys if specs[k] != "periodic" and not specs[k].startswith("periodic:")]
     if not walled or "profile_porosity" not in ds:
         return _no_containers("profiles")
-    plt = _plt()
+    plt = pyplot()
     completed = np.isfinite(completed_phi_J(ds))
     container = ds["container"].values.astype(str)
     distance = ds["wall_distance"].values.astype(float)

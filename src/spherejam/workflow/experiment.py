@@ -196,17 +196,25 @@ def distributions_of(config: dict[str, Any]) -> list[Distribution]:
     from ..core.size_distribution import lognormal_spec
 
     out = [Distribution(shorthand_key(s), lognormal_spec(s), float(s)) for s in config.get("sigmas") or []]
-    named = config.get("distributions") or {}
-    if not isinstance(named, dict):
-        raise InputError(f"distributions={named!r}: must be a mapping of names to specs")
-    for name, spec in named.items():
-        if not isinstance(name, str) or not re.fullmatch(NAME_PATTERN, name) or _SHORTHAND.fullmatch(name):
-            raise InputError(f"distributions.{name}: a name is a letter then letters, digits, _ or - (and not "
-                             "sigma<number>, the key of the sigmas shorthand)")
-        if not isinstance(spec, str):
-            raise InputError(f"distributions.{name}={spec!r}: must be a spec string such as 'gaussian:delta=0.2'")
+    for name, spec in _named_specs(config, "distributions", _SHORTHAND, "sigma<number>, the key of the sigmas "
+                                   "shorthand", "'gaussian:delta=0.2'"):
         out.append(Distribution(name, spec.strip()))
     return out
+
+
+def _named_specs(config: dict, field: str, reserved: re.Pattern, why_reserved: str, example: str):
+    """The (name, spec) pairs of the mapping ``config[field]``, each checked: a name is a letter then letters,
+    digits, _ or -, and not one that ``reserved`` matches; a spec is a string. A bad one: one line naming it."""
+    named = config.get(field) or {}
+    if not isinstance(named, dict):
+        raise InputError(f"{field}={named!r}: must be a mapping of names to specs, e.g. {{name: {example}}}")
+    for name, spec in named.items():
+        if not isinstance(name, str) or not re.fullmatch(NAME_PATTERN, name) or reserved.fullmatch(name):
+            raise InputError(f"{field}.{name}: a name is a letter then letters, digits, _ or - (and not "
+                             f"{why_reserved})")
+        if not isinstance(spec, str):
+            raise InputError(f"{field}.{name}={spec!r}: must be a spec string such as {example}")
+        yield name, spec
 
 
 @dataclass(frozen=True)
@@ -238,17 +246,9 @@ def containers_of(config: dict[str, Any]) -> list[ContainerEntry]:
     :class:`InputError` naming a bad name or spec."""
     from ..core.container import parse
 
-    named = config.get("containers") or {}
-    if not isinstance(named, dict):
-        raise InputError(f"containers={named!r}: must be a mapping of names to specs, e.g. {{column: "
-                         "'cylinder:diameter=10'}")
     out = []
-    for name, spec in named.items():
-        if not isinstance(name, str) or not re.fullmatch(NAME_PATTERN, name) or _RESERVED_CONTAINER.fullmatch(name):
-            raise InputError(f"containers.{name}: a name is a letter then letters, digits, _ or - (and not ls, fb, "
-                             "n<number> or sigma<number>, which would read as another part of a run key)")
-        if not isinstance(spec, str):
-            raise InputError(f"containers.{name}={spec!r}: must be a spec string such as 'cylinder:diameter=10'")
+    for name, spec in _named_specs(config, "containers", _RESERVED_CONTAINER, "ls, fb, n<number> or sigma<number>, "
+                                   "which would read as another part of a run key", "'cylinder:diameter=10'"):
         out.append(ContainerEntry(name, parse(spec, f"containers.{name}").text))
     specs = [c.spec for c in out]
     for i, c in enumerate(out):

@@ -18,7 +18,9 @@ from ..core.atomic import atomic_output
 from ..core.errors import InputError
 from .bands import FAST_DEFAULTS
 from . import finite_size, paper_reference
+from . import container_figures
 from .dataset import at_n, container_keys, dataset_config, reference_packings, sizes_in
+from .plotting import pyplot
 from .tables import TABLE2_ROWS, band_settings, completed_phi_J, compute_tables, fast_bands, paper_row
 
 #: One symbol per sigma, in increasing sigma (the paper's number distributions tell sigma apart by symbol too).
@@ -30,22 +32,13 @@ PHI_TUNNELLED = 2 * PHI_HCP / 3
 PANEL_ROWS = tuple(TABLE2_ROWS[i] for i in (0, 2, 1, 3))
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _sigmas(ds):
     """The sigmas of the ``sigmas`` runs (named distributions have sigma NaN: they are in Fig. 5 and the tables)."""
     return sorted({s for s in ds.sigma.values.tolist() if math.isfinite(s)})
 
 
 def _colours(sigmas):
-    plt = _plt()
+    plt = pyplot()
     cmap = plt.get_cmap("viridis")
     smax = max(max(sigmas), 1e-9)
     return {s: cmap(0.9 * s / smax) for s in sigmas}
@@ -99,7 +92,7 @@ def fig2(ds):
     phi_RCP (Table 4) is marked at the left of the densified panels (b, d), and each panel's own Table 2 phi_GCP at
     its right.
     """
-    plt = _plt()
+    plt = pyplot()
     tables = compute_tables(ds)
     t2, t4 = tables["table2"], tables["table4"]
     sigmas = _sigmas(ds)
@@ -130,7 +123,7 @@ def fig2(ds):
 def fig3(ds):
     """phi_J of the validation grid vs the true 1/gamma of its LS packings, coloured by (a) the decrease factor and
     (b) the initial rate; one symbol per sigma."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
     if "grid_run" not in ds.dims:
         for ax in axes:
@@ -186,7 +179,7 @@ def _bin_edges(v):
 def fig4(ds):
     """Number distributions of phi_J for fast compressions, (a) LS and (b) FB; each sigma on its own bins, drawn as
     symbols joined by lines."""
-    plt = _plt()
+    plt = pyplot()
     fast = _fast_limits(ds)
     sigmas = _sigmas(ds)
     col, mk = _colours(sigmas), _markers(sigmas)
@@ -256,7 +249,7 @@ def fig5(ds):
     from ..analysis.psd_models import PHI_RCP_MONO_PAPER, desmond_weeks, santos
     from .paper_reference import table4 as paper_table4
 
-    plt = _plt()
+    plt = pyplot()
     t4 = compute_tables(ds)["table4"]
     paper = paper_table4()
     fig, ax = plt.subplots(figsize=(6.5, 6.4))
@@ -318,7 +311,7 @@ def fig6(ds):
     convergence to phi_GCP (sigma > 0, dotted) or the crystallisation of equal spheres towards phi_HCP (dashed).
     Grey: untypical jammed configurations, bounded by phi_max (phi_HCP for sigma = 0, phi_GCP otherwise) and phi_L.
     """
-    plt = _plt()
+    plt = pyplot()
     t4 = compute_tables(ds)["table4"]
     sigmas = _sigmas(ds)
     shown = sorted({sigmas[-1], *([0.0] if 0.0 in sigmas else [])})
@@ -388,7 +381,7 @@ def fig6(ds):
 def fig7(ds):
     """phi and phi_J vs sqrt(gamma) (linear axis) with the Table 2 cubic fits in black, extrapolated to gamma = 0;
     phi_GCP marked at the left edge."""
-    plt = _plt()
+    plt = pyplot()
     t2 = compute_tables(ds)["table2"]
     sigmas = _sigmas(ds)
     col, mk = _colours(sigmas), _markers(sigmas)
@@ -425,7 +418,7 @@ STRUCTURE_PANELS = (
 
 def structure(ds):
     """Structural measures of the jammed packings vs phi_J, sigma = 0, across compression rates."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(12, 7))
     m = _sel(ds, sigma=0.0) if np.isclose(ds.sigma.values, 0).any() else np.ones(ds.sizes["packing"], bool)
     for ax, (var, label) in zip(axes.flat, STRUCTURE_PANELS):
@@ -450,7 +443,7 @@ def structure(ds):
 
 def forces(ds):
     """Contact-force and gap distributions of the CALiPPSO-certified packings."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for ax, var, xlabel, expo, symbol, mf in (
         (axes[0], "extended_force", "contact force f / <f>", "force_exponent", "θ_e", 0.42311),
@@ -486,7 +479,7 @@ def scaling(ds):
     fast packings and their sample min/max against N^-1/2, the fitted mean and the expected min/max for the measured
     sample size, and the edges extrapolated to the paper's N = 10^4 (for its sample sizes, with 95 % bootstrap
     intervals) and to N -> infinity, beside the paper's values."""
-    plt = _plt()
+    plt = pyplot()
     groups = fast_bands(ds) if len(sizes_in(ds)) > 1 else []
     if not groups:
         fig, ax = plt.subplots(figsize=(6.5, 3))
@@ -564,16 +557,9 @@ def _scaling_panel(ax, samples, protocol, group, alpha, conf, target, paper, pap
     ax.grid(alpha=0.3)
 
 
-def _container_figures():
-    from . import container_figures
-
-    return container_figures.FIGURES
-
-
 FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6, "fig7": fig7,
            "structure": structure, "forces": forces, "scaling": scaling,
-           "containers": lambda ds: _container_figures()["containers"](ds),
-           "profiles": lambda ds: _container_figures()["profiles"](ds)}
+           **container_figures.FIGURES}
 
 
 #: Figures drawn per sigma of the ``sigmas`` runs (named distributions appear in Fig. 5, the tables and the force
@@ -588,7 +574,7 @@ def draw(name: str, ds):
     cube), and say so; the container figures show them all."""
     if name not in FIGURES:
         raise InputError(f"figure={name!r}: must be one of {', '.join(FIGURES)}")
-    if name in _container_figures():
+    if name in container_figures.FIGURES:
         return FIGURES[name](ds)
     keys = container_keys(ds)
     if keys:
@@ -605,7 +591,7 @@ def draw(name: str, ds):
                  va="bottom", fontsize=7, color="0.35")
         return fig
     if name in PER_SIGMA and not _sigmas(ds):
-        plt = _plt()
+        plt = pyplot()
         fig, ax = plt.subplots(figsize=(6.5, 3))
         _no_data(ax, f"{name} is drawn per σ of the log-normal sigmas runs; this experiment has none.\n"
                      "Its named distributions are in Fig. 5 and Tables 3-4.")
@@ -616,7 +602,7 @@ def draw(name: str, ds):
 
 def save_figure(fig, stem: str | os.PathLike, formats=("png", "pdf")) -> list[Path]:
     """Write ``stem.png`` and ``stem.pdf`` atomically."""
-    plt = _plt()
+    plt = pyplot()
     out = []
     for ext in formats:
         path = Path(f"{stem}.{ext}")

@@ -141,7 +141,7 @@ def mls_history_figure(jammed: str | os.PathLike, title: str = ""):
     """p and phi against the cumulative collisions of the MLS run that made ``jammed`` (a packing file), one
     colour per compression stage (labelled with its rate gamma), equilibration stages in grey."""
     from ..core.packing_io import read_packing
-    from .figures import _plt  # the package's one matplotlib setup
+    from .plotting import pyplot
 
     _, history = read_packing(jammed, with_history=True)
     needed = ("collisions", "pressure", "phi", "rate", "stage")
@@ -149,7 +149,7 @@ def mls_history_figure(jammed: str | os.PathLike, title: str = ""):
         raise PackingFileError(f"{jammed}: no MLS history (needs the columns {', '.join(needed)})")
     collisions = np.cumsum(history["collisions"])
     p, phi, rate, stage = history["pressure"], history["phi"], history["rate"], history["stage"].astype(int)
-    plt = _plt()
+    plt = pyplot()
     fig, (ax_p, ax_phi) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6.0), constrained_layout=True)
     compress = sorted({int(s) for s, r in zip(stage, rate) if r > 0})
     cmap = plt.get_cmap("viridis")

@@ -108,11 +108,11 @@ def figure(packing: Packing, size: tuple[int, int] = (800, 800), sigma: float | 
 
     ``sigma`` is the nominal polydispersity to print; by default the sample's relative std of D is printed.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import Normalize
+
+    from .plotting import pyplot
+
+    plt = pyplot()
 
     with tempfile.TemporaryDirectory() as tmp:
         png = render_spheres(packing, Path(tmp) / "spheres.png", size)
