@@ -332,7 +332,9 @@ def run_calippso(
     schedule : str
         The bounds schedule (docs §10): "adaptive" (the default; the first regime from the input's gaps, a bound
         that stops a stable particle widened, docs §1.5-§1.6) or "reference" (CALiPPSO.jl's: a loose regime-1 first
-        LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening).
+        LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening) or
+        "trust" (adaptive, with a trust region: s_bound in regimes 2 and 3 capped at
+        :data:`~.schedule.TRUST_FACTOR` sqrt(sqrt(Gamma_prev) - 1) R, the cutoff shrunk with it, docs §10.7).
     interior_steps : bool
         Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
         interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
@@ -705,7 +707,7 @@ def _schedule(x, dia, loop, cfg: _Settings, previous_step: float | None = None) 
     ell, sb, inflation_max, regime = step_limits(
         loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.period, cfg.regime_thresholds,
         None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit,
-        widen=cfg.schedule == "adaptive")
+        widen=cfg.schedule != "reference", trust=cfg.schedule == "trust")
     if cfg.walls is not None:  # a curved wall's margin vanishes with the steps (docs/containers.md §5)
         capped = cfg.walls.capped_bound(sb, previous_step, dia, math.sqrt(inflation_max))
         if capped < sb:
