@@ -58,7 +58,10 @@ RESUMABLE_CHANGES = ("max_iterations", "threads")
 #: Settings that choose only how the LPs are solved, and so the trajectory, never the convergence criteria: a run
 #: may be resumed from a checkpoint written under other values of them (docs §10.6). The output's parameters then
 #: list each change and the LP it took effect at (``trajectory_changes``).
-TRAJECTORY_CHANGES = ("interior_steps", "solver", "crossover", "active_set", "warm_start", "constraint_generation")
+#: The schedule may change between "adaptive" and "trust", which start alike; the reference's starts from another
+#: sqrt(Gamma_prev) (``initial_sqrt_inflation``, part of the fingerprint).
+TRAJECTORY_CHANGES = ("interior_steps", "solver", "crossover", "active_set", "warm_start", "constraint_generation",
+                      "schedule")
 
 
 # --- result -----------------------------------------------------------------------------------------------------
@@ -448,7 +451,8 @@ class _EarlierTrajectory:
         self.packing, self.hashed = packing, hashed
         solver = resolve_solver("auto", packing.n)
         self.defaults = {"interior_steps": False, "solver": solver, "crossover": solver != "hipo",
-                         "active_set": True, "warm_start": True, "constraint_generation": False}
+                         "active_set": True, "warm_start": True, "constraint_generation": False,
+                         "schedule": "adaptive"}
 
     def settings(self, attrs) -> dict[str, Any]:
         return {**self.defaults, **attrs.get("trajectory", {})}
