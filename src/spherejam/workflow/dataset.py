@@ -53,8 +53,6 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "generation_iterations": ("iterations of the FB generation run, or LS pressure windows", "1"),
     "generation_wall_time": ("wall time of the generation run", "s"),
     "phi_J": ("closest jamming density (MLS)", "1"),
-    "calippso_sampled": ("1 if CALiPPSO certifies this packing (calippso.per_cell's sample, or every packing), else 0",
-                         "1"),
     "pressure_J": ("reduced pressure at the end of MLS", "1"),
     "mls_collisions": ("collisions of the MLS run", "1"),
     "mls_stages": ("compression stages of the MLS run", "1"),
@@ -83,6 +81,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
                          "cylinder or a sphere, from the nearer wall in a slab or a box), exact sphere-shell volumes",
                          "1"),
     "wall_distance": ("distance from the wall of the bin centre, in mean diameters", "1"),
+    "calippso_sampled": ("1 if CALiPPSO certifies this packing (calippso.per_cell's sample, or every packing), else 0",
+                         "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "n": ("number of spheres N of the packing", "1"),
