@@ -45,8 +45,8 @@ def cutoff_and_bound(sqrt_inflation_prev: float, radius: float, cutoff0: float, 
     ``radius`` is the current largest radius R, ``cutoff0`` the user cutoff l0, ``s_bound`` an optional fixed
     bound overriding the regimes; ``shrink``: in regimes 2 and 3 the cutoff only as long as that bound needs for
     sqrt(Gamma_max) = 1.1 (the trust region, docs/calippso.md §10.7). Returns ``(l, s_bound, inflation_max,
-    regime)`` (inflation_max: Gamma_max); guarantees s_bound > 0, l <= box and Gamma_max > 1 (docs/calippso.md §1.4); raises :class:`InputError` for a box
-    not wider than the largest sphere.
+    regime)`` (inflation_max: Gamma_max); guarantees s_bound > 0, l <= box and Gamma_max > 1 (docs/calippso.md
+    §1.4); raises :class:`InputError` for a box not wider than the largest sphere.
     """
     R = radius
     rd = math.sqrt(dim)
