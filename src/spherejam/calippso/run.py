@@ -313,7 +313,9 @@ def run_calippso(
     checkpoint : path or None
         Save the state there every ``checkpoint_interval`` seconds (>= 0) and when the run stops unconverged; a
         call with an existing checkpoint of the same input and parameters (``max_iterations`` and ``threads`` may
-        differ) resumes from it and continues as the uninterrupted run would. Removed when the run converges.
+        differ) resumes from it and continues as the uninterrupted run would; one that differs also in
+        :data:`TRAJECTORY_CHANGES` resumes too and continues on the new path (docs §10.6). Removed when the run
+        converges.
     progress_interval : float
         Seconds between progress lines (logger ``spherejam``).
     solver : str
