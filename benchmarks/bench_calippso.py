@@ -104,7 +104,7 @@ def parse_path(text: str) -> dict:
     """``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` -> run_calippso keyword
     arguments (``+interior``: intermediate steps from the interior point; ``-warm``:
     no warm starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7; ``/schedule``: the
-    bounds schedule, ``adaptive`` or ``reference``, docs/calippso.md §10)."""
+    bounds schedule, ``adaptive``, ``reference`` or ``trust``, docs/calippso.md §10)."""
     text, _, max_lps = text.partition("@")
     text, _, schedule = text.partition("/")
     kw = {"schedule": schedule} if schedule else {}

@@ -209,3 +209,24 @@ def test_interior_steps_end_on_a_vertex_and_certify(ls_jammed_256):
     methods = result.history["method"]
     assert np.any(methods == METHOD_CODES["interior"]) and methods[-1] != METHOD_CODES["interior"]
     assert result.packing.metadata["parameters"]["interior_steps"] is True
+
+
+def test_a_checkpoint_resumes_with_other_trajectory_settings(ls_jammed_256, tmp_path):
+    """A run checkpointed on the default path resumes with interior steps (a trajectory setting, docs §10.6): the
+    change is recorded with the LP it starts at, the later LPs take the new path, and the certificate is valid; a
+    change of a convergence criterion is still refused."""
+    from spherejam.calippso.solution import METHOD_CODES
+    from spherejam.core.errors import PackingFileError
+
+    ckpt = tmp_path / "c.h5"
+    part = run_calippso(ls_jammed_256, max_iterations=1, checkpoint=ckpt, checkpoint_interval=0)
+    assert part.stop_reason == "max_iterations" and ckpt.exists()
+    with pytest.raises(PackingFileError, match="different input or parameters"):
+        run_calippso(ls_jammed_256, checkpoint=ckpt, interior_steps=True, inflation_tolerance=1e-11)
+    done = run_calippso(ls_jammed_256, checkpoint=ckpt, interior_steps=True)
+    assert_jammed(done, 3)
+    methods = done.history["method"]
+    assert methods[0] != METHOD_CODES["interior"] and methods[1] == METHOD_CODES["interior"]
+    params = done.packing.metadata["parameters"]
+    assert params["interior_steps"] is True
+    assert params["trajectory_changes"] == [{"from_lp": 2, "interior_steps": True}]

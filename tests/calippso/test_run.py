@@ -166,3 +166,24 @@ def test_reference_schedule_takes_a_loose_first_lp_and_certifies(tmp_path):
     assert [float(r["sqrt_gamma_minus_1"]) for r in rows] == h["sqrt_inflation_minus_1"].tolist()
     assert [int(r["contacts_gained"]) + int(r["contacts_lost"]) for r in rows[1:]] == h["contact_changes"][1:].tolist()
     assert rows[0]["contacts_gained"] == "-1" and rows[0]["method"] in ("ipm", "vertex", "simplex")
+
+
+def test_the_trust_region_ties_s_bound_to_the_last_sqrt_gamma(ls_jammed_256):
+    """schedule="trust" (docs/calippso.md §10.7): after an LP that stopped no stable sphere at its bound, the next
+    regime-3 bound is TRUST_FACTOR sqrt(sqrt(Gamma_prev) - 1) R (the regime's bound where that is larger), the
+    cutoff is as short as that bound allows, and the run ends with a valid certificate."""
+    from spherejam.calippso.schedule import REGIME_S_BOUNDS, TRUST_FACTOR, TRUST_MIN
+
+    result = run_calippso(ls_jammed_256, schedule="trust")
+    assert_jammed(result, 3)
+    h = result.history
+    g, sb, ell, hit = h["sqrt_inflation_minus_1"], h["s_bound"], h["cutoff"], h["bound_active"]
+    trusted = 0
+    for k in range(1, result.iterations):
+        # units of the largest diameter D = 2R
+        cap = 0.5 * max(TRUST_FACTOR * math.sqrt(max(g[k - 1], 0.0)), TRUST_MIN)
+        if hit[k - 1] == 0 and cap < 0.5 * REGIME_S_BOUNDS[1] and h["regime"][k] == 3:
+            trusted += 1
+            assert sb[k] == pytest.approx(cap, rel=1e-6)
+            assert ell[k] == pytest.approx(1.1 + 2.0 * math.sqrt(3.0) * sb[k], rel=1e-6)
+    assert trusted >= 2

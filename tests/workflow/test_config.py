@@ -31,3 +31,49 @@ def test_threads_config_key_is_validated(bad):
         assert "\n" not in str(info.value)
     with pytest.raises(InputError, match=r"calippso\.threads="):
         cpus_per_task("calippso", bad)
+
+
+def test_calippso_per_cell_certifies_a_fixed_sample_and_prices_only_it(tmp_path, capsys):
+    """calippso.per_cell: k certifies k packings of each cell (N, container, distribution), the same ones for the
+    same config; the dataset inputs and `spherejam cost` hold only them; a bad value is one line naming the field
+    (exit 2 from the CLI)."""
+    from pathlib import Path
+
+    import yaml
+
+    from spherejam.cli import main
+    from spherejam.workflow.config import check_config, validate_config
+    from spherejam.workflow.cost_model import plan
+    from spherejam.workflow.experiment import Experiment
+
+    root = Path(__file__).resolve().parents[2]
+    schema = root / "config" / "schema.yaml"
+    config = yaml.safe_load((root / "config" / "tiny.yaml").read_text())
+    every = Experiment(validate_config(dict(config), schema))
+    config["calippso"] = {"enabled": True, "threads": 1, "per_cell": 2}
+    exp = Experiment(validate_config(yaml.safe_load(yaml.safe_dump(config)), schema))
+    sample = [r for r in exp.runs() if exp.certifies(r)]
+    cells = {(r.n, r.container, r.dist) for r in exp.runs()}
+    assert len(cells) == 2 and len(sample) == 2 * len(cells) < len(exp.runs())
+    assert all(sum((r.n, r.container, r.dist) == c for r in sample) == 2 for c in cells)
+    again = Experiment(validate_config(yaml.safe_load(yaml.safe_dump(config)), schema))
+    assert {r.key for r in again.runs() if again.certifies(r)} == {r.key for r in sample}
+    # another seed draws another sample (the choice is the seed's, not the order of the runs)
+    other = Experiment(validate_config({**yaml.safe_load(yaml.safe_dump(config)), "seed": 8}, schema))
+    assert {r.key for r in other.runs() if other.certifies(r)} != {r.key for r in sample}
+    certified = {f for f in exp.dataset_inputs() if f.endswith("calippso.json")}
+    assert certified == {exp.paths.packing("calippso", r.key) for r in sample}
+    [full], [part] = plan(every.config).values(), plan(exp.config).values()
+    assert full["calippso"]["jobs"] == len(every.runs()) and part["calippso"]["jobs"] == len(sample)
+    assert part["calippso"]["cpu_hours"] == pytest.approx(full["calippso"]["cpu_hours"] * len(sample)
+                                                          / len(every.runs()))
+    for bad in (0, 2.5, "two", -1):
+        config["calippso"]["per_cell"] = bad
+        for check in (lambda c: validate_config(c, schema), check_config):
+            with pytest.raises(InputError, match=r"calippso\.per_cell=") as info:
+                check(yaml.safe_load(yaml.safe_dump(config)))
+            assert "\n" not in str(info.value)
+        (tmp_path / "bad.yaml").write_text(yaml.safe_dump(config))
+        assert main(["cost", str(tmp_path / "bad.yaml")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "calippso.per_cell" in err[0]

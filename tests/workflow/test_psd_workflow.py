@@ -205,6 +205,13 @@ def test_forces_and_gaps_are_pooled_per_distribution_named_ones_too(monkeypatch,
     runs_per_dist = len(exp.runs()) // 3
     assert list(out["n_forces"][1]) == [runs_per_dist * m for m in per_packing.values()]
     assert list(out["n_gaps"][1]) == list(out["n_forces"][1])
+    assert list(out["n_packings"][1]) == [runs_per_dist] * 3
+    # calippso.per_cell: 1 pools the one certified packing of each cell, and says so (n_packings)
+    one = Experiment(_config(results=str(tmp_path), distributions={"gauss": "gaussian:delta=0.2"},
+                             calippso={"enabled": True, "per_cell": 1}))
+    sampled = collect_distributions(one)
+    assert list(sampled["n_packings"][1]) == [1, 1, 1]
+    assert list(sampled["n_forces"][1]) == list(per_packing.values())
     assert out["force_pdf"][1].shape == (3, 40) and np.all(out["gap_pdf"][1].sum(axis=1) > 0)
 
     ds = xr.Dataset({k: v for k, v in out.items()}, coords=coords)

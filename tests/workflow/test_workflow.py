@@ -397,3 +397,20 @@ def test_a_config_change_remakes_the_dataset_without_snakemake_metadata(tiny_run
     jobs = set(re.findall(r"^(?:local)?rule (\w+):", r.stdout + r.stderr, flags=re.M))
     assert {"dataset", "tables"} <= jobs and not jobs & {"seed", "ls", "fb", "mls", "calippso", "analyze"}, jobs
 
+
+
+def test_per_cell_sample_is_the_only_calippso_jobs(tmp_path):
+    """calippso.per_cell: 1 (tiny config, 2 cells of 10 packings): the DAG holds one CALiPPSO job per cell, for the
+    packing Experiment.certifies, and every packing's MLS job still."""
+    cfg = yaml.safe_load((ROOT / "config" / "tiny.yaml").read_text())
+    cfg["results"] = str(tmp_path / "results")
+    cfg["calippso"]["per_cell"] = 1
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    r = snakemake("-n", "-p", "--cores", "2", "--configfile", str(tmp_path / "c.yaml"))
+    assert r.returncode == 0, r.stderr[-3000:]
+    jobs = [line.split("spherejam calippso ")[1] for line in r.stdout.splitlines() if "spherejam calippso " in line]
+    exp = Experiment(cfg)
+    sample = [run for run in exp.runs() if exp.certifies(run)]
+    assert len(sample) == 2 and len(jobs) == 2
+    assert sorted(job.split()[0] for job in jobs) == sorted(str(exp.path(run, "jammed")) for run in sample)
+    assert sum("spherejam mls " in line for line in r.stdout.splitlines()) >= len(exp.runs())

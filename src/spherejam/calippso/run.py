@@ -55,6 +55,13 @@ STOP_REASONS = ("converged", "max_iterations", "no_force_network")
 INTERIOR_STEP_MIN = 1e-9
 #: Parameters a resumed run may change (the same trajectory): they do not enter the checkpoint's fingerprint.
 RESUMABLE_CHANGES = ("max_iterations", "threads")
+#: Settings that choose only how the LPs are solved, and so the trajectory, never the convergence criteria: a run
+#: may be resumed from a checkpoint written under other values of them (docs §10.6). The output's parameters then
+#: list each change and the LP it took effect at (``trajectory_changes``).
+#: The schedule may change between "adaptive" and "trust", which start alike; the reference's starts from another
+#: sqrt(Gamma_prev) (``initial_sqrt_inflation``, part of the fingerprint).
+TRAJECTORY_CHANGES = ("interior_steps", "solver", "crossover", "active_set", "warm_start", "constraint_generation",
+                      "schedule")
 
 
 # --- result -----------------------------------------------------------------------------------------------------
@@ -306,7 +313,9 @@ def run_calippso(
     checkpoint : path or None
         Save the state there every ``checkpoint_interval`` seconds (>= 0) and when the run stops unconverged; a
         call with an existing checkpoint of the same input and parameters (``max_iterations`` and ``threads`` may
-        differ) resumes from it and continues as the uninterrupted run would. Removed when the run converges.
+        differ) resumes from it and continues as the uninterrupted run would; one that differs also in
+        :data:`TRAJECTORY_CHANGES` resumes too and continues on the new path (docs §10.6). Removed when the run
+        converges.
     progress_interval : float
         Seconds between progress lines (logger ``spherejam``).
     solver : str
@@ -328,7 +337,9 @@ def run_calippso(
     schedule : str
         The bounds schedule (docs §10): "adaptive" (the default; the first regime from the input's gaps, a bound
         that stops a stable particle widened, docs §1.5-§1.6) or "reference" (CALiPPSO.jl's: a loose regime-1 first
-        LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening).
+        LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening) or
+        "trust" (adaptive, with a trust region: s_bound in regimes 2 and 3 capped at
+        :data:`~.schedule.TRUST_FACTOR` sqrt(sqrt(Gamma_prev) - 1) R, the cutoff shrunk with it, docs §10.7).
     interior_steps : bool
         Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
         interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
@@ -355,7 +366,10 @@ def run_calippso(
     if cfg.walls is not None:  # the cube's fingerprint stays as it was
         hashed["container"] = packing.container.to_dict()
     ckpt = Checkpoint(checkpoint, CHECKPOINT_KIND, fingerprint(packing, CHECKPOINT_KIND, hashed), checkpoint_interval)
-    run.resume(ckpt)
+    run.trajectory = {k: parameters[k] for k in TRAJECTORY_CHANGES}
+    run.resume(ckpt, _EarlierTrajectory(packing, hashed))
+    if run.changes:
+        parameters = {**parameters, "trajectory_changes": run.changes}
     log = LPLog(lp_log)
     log.start(run.history.as_arrays())
     converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
@@ -428,6 +442,26 @@ def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, i
         "interior_steps": cfg.interior_steps,
         "highs_version": highs_version(),
     }
+
+
+class _EarlierTrajectory:
+    """Accepts a checkpoint whose LPs were solved under other :data:`TRAJECTORY_CHANGES` and the same everything
+    else (docs §10.6). A checkpoint records its settings (``trajectory``); one written before it did had the
+    defaults."""
+
+    def __init__(self, packing: Packing, hashed: dict[str, Any]):
+        self.packing, self.hashed = packing, hashed
+        solver = resolve_solver("auto", packing.n)
+        self.defaults = {"interior_steps": False, "solver": solver, "crossover": solver != "hipo",
+                         "active_set": True, "warm_start": True, "constraint_generation": False,
+                         "schedule": "adaptive"}
+
+    def settings(self, attrs) -> dict[str, Any]:
+        return {**self.defaults, **attrs.get("trajectory", {})}
+
+    def __call__(self, attrs) -> bool:
+        return attrs.get("fingerprint") == fingerprint(self.packing, CHECKPOINT_KIND,
+                                                       {**self.hashed, **self.settings(attrs)})
 
 
 def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: bool, fine_tune: bool, gap_range: float,
@@ -679,7 +713,7 @@ def _schedule(x, dia, loop, cfg: _Settings, previous_step: float | None = None) 
     ell, sb, inflation_max, regime = step_limits(
         loop.sqrt_inflation_prev, R, cfg.cutoff0, cfg.dim, cfg.period, cfg.regime_thresholds,
         None if cfg.s_bound is None else cfg.s_bound * 2.0 * R, loop.prev_s_bound, loop.bound_hit,
-        widen=cfg.schedule == "adaptive")
+        widen=cfg.schedule != "reference", trust=cfg.schedule == "trust")
     if cfg.walls is not None:  # a curved wall's margin vanishes with the steps (docs/containers.md §5)
         capped = cfg.walls.capped_bound(sb, previous_step, dia, math.sqrt(inflation_max))
         if capped < sb:
@@ -945,6 +979,8 @@ class _Run:
     history: History = field(default_factory=History)
     tally: _Tally = field(default_factory=_Tally)
     last: tuple[_LP, LPSolution, np.ndarray] | None = None  # (the LP, its solution, its rattlers)
+    trajectory: dict[str, Any] = field(default_factory=dict)  # this call's TRAJECTORY_CHANGES settings
+    changes: list[dict[str, Any]] = field(default_factory=list)  # settings changed on resuming, from which LP
 
     @classmethod
     def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
@@ -961,19 +997,28 @@ class _Run:
             loop.gauge = cfg.walls.gauge(x, loop.pinned).gauge
         return cls(x, dia, loop)
 
-    def resume(self, ckpt: Checkpoint) -> None:
-        """Continue from the checkpoint's state, if it has one (docs §7)."""
-        resumed = ckpt.resume()
+    def resume(self, ckpt: Checkpoint, earlier: _EarlierTrajectory | None = None) -> None:
+        """Continue from the checkpoint's state, if it has one (docs §7), also one written under other trajectory
+        settings that ``earlier`` accepts (docs §10.6): the change is recorded with the LP it starts at."""
+        resumed = ckpt.resume(earlier)
         if resumed is not None:
             arrays, attrs, rows = resumed
             self.x, self.dia = arrays["positions"], arrays["diameters"]
             self.iteration, self.tally.lp_time = attrs["iteration"], attrs["lp_time"]
             self.loop = _LoopState.restore(arrays, attrs)
             self.history = History(rows)
+            self.changes = list(attrs.get("trajectory_changes", []))
+            if attrs.get("fingerprint") != ckpt.fingerprint:
+                before = earlier.settings(attrs)
+                changed = {k: v for k, v in self.trajectory.items() if before[k] != v}
+                self.changes.append({"from_lp": self.iteration + 1, **changed})
+                _log.info("calippso: resumed at LP %d with other trajectory settings: %s", self.iteration + 1,
+                          ", ".join(f"{k}={v}" for k, v in changed.items()))
 
     def save(self, ckpt: Checkpoint) -> None:
-        ckpt.save(self.loop.arrays(self.x, self.dia), self.loop.attrs(self.iteration, self.tally.lp_time),
-                  self.history.as_arrays())
+        attrs = {**self.loop.attrs(self.iteration, self.tally.lp_time), "trajectory": self.trajectory,
+                 "trajectory_changes": self.changes}
+        ckpt.save(self.loop.arrays(self.x, self.dia), attrs, self.history.as_arrays())
 
 
 def _phi(dia, cfg: _Settings) -> float:

@@ -38,10 +38,11 @@ def register(sub) -> None:
     p.add_argument("--constraint-generation", action="store_true",
                    help="solve each HiGHS LP over the rows that can close first, then add the violated others "
                         "(docs/calippso.md 5.7); the certificate is the same")
-    p.add_argument("--schedule", choices=("adaptive", "reference"), default="adaptive",
+    p.add_argument("--schedule", choices=("adaptive", "reference", "trust"), default="adaptive",
                    help="bounds schedule: adaptive (default: first regime from the input's gaps, a bound that stops "
                         "a stable particle widened) or reference (CALiPPSO.jl's: a loose first LP, the regimes of "
-                        "the previous sqrt(Gamma) alone, no widening); docs/calippso.md 10")
+                        "the previous sqrt(Gamma) alone, no widening) or trust (adaptive, with s_bound capped at "
+                        "30 sqrt(sqrt(Gamma)-1) R and the cutoff shrunk with it); docs/calippso.md 10")
     p.add_argument("--interior-steps", action="store_true",
                    help="step from the interior point (no vertex, no crossover) while sqrt(Gamma)-1 > 1e-9; the "
                         "final LPs and the force LP take vertices (docs/calippso.md 10)")

@@ -13,7 +13,7 @@ import json
 import logging
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,9 +53,12 @@ class Checkpoint:
         self.interval = float(interval)
         self._last = time.perf_counter()
 
-    def resume(self) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, np.ndarray]] | None:
+    def resume(self, compatible: Callable[[Mapping[str, Any]], bool] | None = None
+               ) -> tuple[dict[str, np.ndarray], dict[str, Any], dict[str, np.ndarray]] | None:
         """(arrays, attributes, history columns) of an existing checkpoint of this run, or None if there is none.
-        Temporary files that an interrupted save left next to the checkpoint are deleted first.
+        Temporary files that an interrupted save left next to the checkpoint are deleted first. ``compatible``
+        (the checkpoint's attributes -> bool) may accept a checkpoint of another fingerprint: an engine's earlier
+        settings that a resumed run may change; the next save writes this run's fingerprint.
 
         Raises :class:`PackingFileError` if the file is unreadable or of another engine, and its subclass
         :class:`StaleCheckpointError` if it is of another input or parameters (it names the file; delete it to
@@ -67,7 +70,7 @@ class Checkpoint:
         if not self.path.exists():
             return None
         arrays, attrs = load_checkpoint(self.path, self.kind)
-        if attrs.get("fingerprint") != self.fingerprint:
+        if attrs.get("fingerprint") != self.fingerprint and not (compatible is not None and compatible(attrs)):
             raise StaleCheckpointError(self.path, f"{self.path}: checkpoint of a different input or parameters; "
                                        "delete it to start over")
         history = {k[len(_HISTORY):]: v for k, v in arrays.items() if k.startswith(_HISTORY)}

@@ -140,6 +140,7 @@ FIELDS: dict[str, Bound] = {
     "fast.fb_max_inverse_rate": Bound(0.0, None, lo_open=True),
     "gcp_monodisperse": UNIT_OPEN,
     "calippso.threads": THREADS,
+    "calippso.per_cell": Bound(1, 1_000_000, integer=True),
 }
 
 #: Limits of CLI-only values.

@@ -84,7 +84,8 @@ def check_config(config: Any) -> dict:
     return config
 
 
-_NULLABLE = {"fb.phi_nominal", "mls.stall_windows", "mls.max_collisions_per_particle", "mls.max_wall_time"}
+_NULLABLE = {"calippso.per_cell", "fb.phi_nominal", "mls.stall_windows", "mls.max_collisions_per_particle",
+             "mls.max_wall_time"}
 
 
 def _values(config: dict, field: str):

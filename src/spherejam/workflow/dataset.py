@@ -81,6 +81,8 @@ VARIABLES: dict[str, tuple[str, str]] = {
                          "cylinder or a sphere, from the nearer wall in a slab or a box), exact sphere-shell volumes",
                          "1"),
     "wall_distance": ("distance from the wall of the bin centre, in mean diameters", "1"),
+    "calippso_sampled": ("1 if CALiPPSO certifies this packing (calippso.per_cell's sample, or every packing), else 0",
+                         "1"),
 }
 COORDS: dict[str, tuple[str, str]] = {
     "n": ("number of spheres N of the packing", "1"),
@@ -217,6 +219,8 @@ def collect_runs(exp: Experiment, part: Part | None = None) -> tuple[list[Run], 
         row.update(_mls_scalars(exp.path(run, "jammed")))
         if exp.config.get("analysis", {}).get("enabled", True):
             row.update(_json_scalars(exp.path(run, "structure"), ""))
+        if exp.config.get("calippso", {}).get("enabled", True):
+            row["calippso_sampled"] = float(exp.certifies(run))  # calippso.per_cell's sample, or every packing
         if exp.certifies(run):
             row.update(_json_scalars(exp.path(run, "calippso"), "calippso_"))
             _no_certificate_without_forces(row)
@@ -329,7 +333,7 @@ def collect_distributions(exp: Experiment, part: Part | None = None) -> dict[str
 
     dists = [d for d in exp.distributions if part is None or (exp.largest_n, d.key) in part.cells]
     rows = {k: [] for k in ("force_pdf", "extended_force_pdf", "gap_pdf", "force_exponent", "gap_exponent",
-                            "n_forces", "n_gaps")}
+                            "n_forces", "n_gaps", "n_packings")}
     for dist in dists:
         forces, extended, gaps = [], [], []
         for run in exp.largest_runs():
@@ -350,6 +354,7 @@ def collect_distributions(exp: Experiment, part: Part | None = None) -> dict[str
         rows["gap_exponent"].append(_safe_exponent(gap_exponent, g))
         rows["n_forces"].append(len(f))
         rows["n_gaps"].append(len(g))
+        rows["n_packings"].append(len(forces))
     dims = {"force_pdf": (POOLED, "force_bin"), "extended_force_pdf": (POOLED, "force_bin"),
             "gap_pdf": (POOLED, "gap_bin")}
     out = {k: (dims.get(k, (POOLED,)), np.array(v, dtype=float)) for k, v in rows.items()}
@@ -386,6 +391,7 @@ DISTRIBUTION_VARIABLES = {
     "gap_exponent": ("small-gap exponent gamma_h of the pooled gaps, g(h) ~ h^-gamma_h (mean field 0.41269)", "1"),
     "n_forces": ("contact forces pooled", "1"),
     "n_gaps": ("gaps pooled", "1"),
+    "n_packings": ("CALiPPSO-certified packings pooled (calippso.per_cell's sample, or every packing)", "1"),
     "dist_distribution": ("size distribution of the pooled packings (its key)", ""),
     "dist_sigma": ("log-normal sigma of the pooled packings (NaN for a named distribution)", "1"),
     "force_bin_centre": ("geometric centre of the force bin, f/<f>", "1"),

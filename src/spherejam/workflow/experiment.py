@@ -473,6 +473,7 @@ class Experiment:
     def __init__(self, config: dict[str, Any]):
         self.config = config
         self._pair_loads: dict[tuple[str, int], float] = {}  # pair_load's cache
+        self._certified: frozenset[Run] | None = None  # certified_sample's cache
         try:
             results = config.get("results", "results")
             if not isinstance(results, str) or not results.strip():
@@ -597,8 +598,35 @@ class Experiment:
         return (cubes or [self.containers[0].key])[0]
 
     def certifies(self, run: Run) -> bool:
-        """Whether CALiPPSO certifies ``run`` (``calippso.enabled``; every container is certified)."""
-        return bool(self.config.get("calippso", {}).get("enabled", True))
+        """Whether CALiPPSO certifies ``run``: ``calippso.enabled`` (every container is certified) and, with
+        ``calippso.per_cell: k``, ``run`` is one of the k packings of its cell that :meth:`certified_sample` draws."""
+        if not self.config.get("calippso", {}).get("enabled", True):
+            return False
+        return self.calippso_per_cell is None or run in self.certified_sample()
+
+    @property
+    def calippso_per_cell(self) -> int | None:
+        """``calippso.per_cell``: the packings certified per cell (None: every packing)."""
+        k = self.config.get("calippso", {}).get("per_cell")
+        return None if k is None else int(k)
+
+    def certified_sample(self) -> frozenset[Run]:
+        """With ``calippso.per_cell: k``, the packings CALiPPSO certifies: in each cell (N, container, size
+        distribution; every protocol, rate and replica of it) the k whose SHA-256 of the master seed and run key
+        ranks first (all of a cell with at most k). The choice depends only on the seed and the run keys, so the
+        same config certifies the same packings, and a rate or replica added later leaves the others' ranks as
+        they were."""
+        if self._certified is None:
+            k = self.calippso_per_cell
+            cells: dict[tuple, list[Run]] = {}
+            for run in self.runs():
+                cells.setdefault((run.n, run.container, run.dist), []).append(run)
+
+            def rank(run: Run) -> str:
+                return hashlib.sha256(f"{self.master_seed}:calippso:{run.key}".encode()).hexdigest()
+            self._certified = frozenset(r for runs in cells.values()
+                                        for r in (runs if k is None else sorted(runs, key=rank)[:k]))
+        return self._certified
 
     def distribution(self, key: str) -> Distribution:
         """The distribution of a key (``sigma0.1`` or a name)."""
