@@ -807,6 +807,16 @@ def _geometry(lengths, half):
 
 
 @njit(cache=True, inline="always")
+def _frame_tuples(lengths, half, periodic, walls):
+    """The frame's and the walls' arrays as tuples of scalars, for the event loop: each array handed to the inlined
+    :func:`_predict` costs a reference increment and decrement (two calls) per prediction, which numba's refcount
+    pruning leaves in its branches, and a tuple nothing (docs/containers.md §8: the periodic path's +4 %)."""
+    return ((lengths[0], lengths[1], lengths[2]), (half[0], half[1], half[2]),
+            (periodic[0], periodic[1], periodic[2]),
+            (walls[0], walls[1], walls[2], walls[3], walls[4], walls[5], walls[6], walls[7], walls[8]))
+
+
+@njit(cache=True, inline="always")
 def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
                    nbr, nnb, lx, ly, lz, hx, hy, hz):
     """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
@@ -924,6 +934,7 @@ def init_events(s, t):
     st, refs, nbr, nnb = s.st, s.refs, s.nbr, s.nnb
     ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
     lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
+    lengths, half, periodic, walls = _frame_tuples(lengths, half, periodic, walls)  # see _frame_tuples
     rho0, gamma, skin, rho_list, multi = s.rho0, s.gamma, s.skin, s.rho_list, s.multi
     geom = _geometry(lengths, half)
     n = st.shape[0]
@@ -953,6 +964,7 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     scratch, rho0, gamma, rho_list, skin, multi = s.scratch, s.rho0, s.gamma, s.rho_list, s.skin, s.multi
     lvl_ms, lvl_off, lvl_dmax, level = s.lvl_ms, s.lvl_off, s.lvl_dmax, s.level
     lengths, half, periodic, walls, has_walls = s.lengths, s.half, s.periodic, s.walls, s.has_walls
+    lengths, half, periodic, walls = _frame_tuples(lengths, half, periodic, walls)  # see _frame_tuples
     geom = _geometry(lengths, half)
     lx, ly, lz, hx, hy, hz, _ = geom
     coords = np.empty(3, dtype=np.int64)  # cell-stencil work space of the local list updates
