@@ -449,8 +449,8 @@ def wall_event(xi, yi, zi, vxi, vyi, vzi, r, a, lengths, walls):
 def walls_beyond(x, y, z, reach, lengths, walls):
     """Whether every wall lies farther than ``reach`` from the point (x, y, z): a sphere whose reference centre is that
     point, that stays within skin/2 of it and whose radius stays below r_max, cannot touch a wall while reach >
-    skin/2 + r_max. The prediction then skips :func:`wall_event` (docs/containers.md §8: the wall event of an inner
-    sphere, never the earliest, cost a tube a tenth of its collisions' time)."""
+    skin/2 + r_max. The prediction then skips :func:`wall_event`, whose call at every prediction took 6.6e8 of the
+    1.45e10 instructions of a tube's LS run, for spheres far from the wall too (docs/containers.md §8)."""
     for k in range(3):
         if walls[k] != 0.0:
             c = x if k == 0 else (y if k == 1 else z)
