@@ -1,7 +1,7 @@
 """Instructions per compiled function: valgrind's callgrind over one run, with numba's JIT code named
-(docs/containers.md §8). Callgrind names code without symbols by its address; the case process, once its run is over, writes the
-address of every function of every compiled library it loaded (numba's cached object code), and this script folds
-callgrind's self costs onto those names.
+(docs/containers.md §8). Callgrind names code without symbols by its address; the case process, once its run is
+over, writes the address of every function of every compiled library it loaded (numba's cached object code), and
+this script folds callgrind's self costs onto those names.
 
     python benchmarks/jit_profile.py periodic OUT [--src TREE/src]   # instructions.py's case: N = 1000, sigma = 0
     python benchmarks/jit_profile.py cylinder OUT                    # containers_spheropack.py's tube, seed 1
