@@ -60,6 +60,43 @@ def test_concave_delay_is_the_first_contact_with_a_cylinder_or_sphere(rng, touch
         assert (got > 40.0 and math.isinf(want)) or got == pytest.approx(want, abs=3e-4, rel=1e-3)
 
 
+_SHAPES = {
+    "cylinder": Container((6.0, 6.0, 5.0), (False, False, True), (False, False, False), curved="cylinder", radius=3.0),
+    "capped cylinder along x": Container((5.0, 6.0, 6.0), (False,) * 3, (True, False, False), curved="cylinder",
+                                         radius=3.0, axis=0),
+    "slab": Container((5.0, 5.0, 4.0), (True, True, False), (False, False, True)),
+    "box": Container((5.0, 6.0, 7.0), (False,) * 3, (True,) * 3),
+    "sphere": Container((6.0, 6.0, 6.0), (False,) * 3, (False,) * 3, curved="sphere", radius=3.0),
+}
+
+
+@pytest.mark.parametrize("shape", list(_SHAPES))
+def test_a_wall_beyond_reach_is_never_met_before_the_skin_event(rng, shape):
+    """walls_beyond, which lets the prediction skip the wall event of a sphere far from every wall, is the exact
+    distance test (against Container.wall_distance); and whenever it skips, the sphere (within skin/2 = h of its
+    reference centre, its radius growing up to r_max) meets no wall before it leaves its skin sphere or outgrows
+    r_max."""
+    c = _SHAPES[shape]
+    lengths, walls = np.asarray(c.lengths, dtype=float), c.wall_array()
+    skipped = 0
+    for _ in range(3000):
+        ref = rng.uniform(0.0, 1.0, 3) * lengths
+        h, r0, a = rng.uniform(0.05, 0.3), rng.uniform(0.1, 0.6), rng.uniform(0.0, 0.05)
+        r_max = r0 + a * rng.uniform(0.0, 5.0)
+        beyond = ed.walls_beyond(*ref, h + r_max, lengths, walls)
+        assert beyond == (c.wall_distance(ref[None, :])[0] > h + r_max)
+        if not beyond:
+            continue
+        skipped += 1
+        u = rng.normal(size=3)
+        x = ref + u / np.linalg.norm(u) * h * rng.uniform(0.0, 1.0) ** (1 / 3)
+        v = rng.normal(size=3)
+        tau_wall, _ = ed.wall_event(*x, *v, r0, a, lengths, walls)
+        tau_skin = ed.skin_exit_delay(*(x - ref), *v, h)
+        assert tau_wall > tau_skin or r0 + a * tau_wall > r_max, (ref, x, v, r0, a, r_max, tau_wall, tau_skin)
+    assert skipped > 100
+
+
 def test_a_sphere_bounces_elastically_inside_a_spherical_container():
     """Two spheres at gamma = 0 in a sphere of radius 3: the kinetic energy at the end of every window (before the
     thermostat) is the initial one, the spheres never leave, and they bounce off the wall many times."""
