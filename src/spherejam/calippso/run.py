@@ -32,11 +32,11 @@ from ..core.neighbours import Frame, pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
-from .constraints import Pins, closable_reach, cutoff_rows, pair_keys
+from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
-from .network import balanced_forces, contact_network, initial_pin, near_gaps, repin
+from .network import balanced_forces, contact_network, escape_motion, initial_pin, near_gaps, repin
 from .schedule import (REFERENCE_INITIAL_SQRT_INFLATION, REGIME_THRESHOLDS, SCHEDULES, cutoff_and_bound,
                        nearest_gap_median, step_limits)
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
@@ -358,8 +358,12 @@ def run_calippso(
     run.resume(ckpt)
     log = LPLog(lp_log)
     log.start(run.history.as_arrays())
+    progress = Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval)
     converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
-                         Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval), log)
+                         progress, log)
+    while converged and run.escapes < MAX_ESCAPES and _escape(run, cfg):  # converged, but not held: go on
+        converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
+                             progress, log)
     if not converged and require_convergence:
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
                               f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
@@ -466,6 +470,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
         "worst_overlap": final_report.worst_overlap, "pinned": int(run.loop.pinned),
+        **({"escapes": run.escapes} if run.escapes else {}),  # a run that made none records what it did before
     }
     out.metadata["counters"] = counters
     if converged:
@@ -838,6 +843,45 @@ def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: f
         loop.gauge = cfg.walls.gauge(x, loop.pinned, sphere_rattler).gauge
 
 
+#: An unheld sphere's escape (docs/containers.md §5): a step of this many largest diameters along the motion that
+#: frees it, halved until it overlaps nothing; its loaded contacts open by ~(1e-3)^2 / 2 of a diameter, far above
+#: the LP's tolerances, so that the next LPs see the room the network gains.
+ESCAPE_STEP = 1e-3
+#: Escapes a run makes at most (each follows a converged LP sequence; a resumed run counts from 0).
+MAX_ESCAPES = 50
+
+
+def _escape(run: _Run, cfg: _Settings) -> bool:
+    """After convergence: if the last LP's duals load spheres that are not held (:func:`~.network.escape_motion`),
+    take a step of :data:`ESCAPE_STEP` largest diameters along the motion that frees them, halved until it overlaps
+    nothing, and return True; False (nothing moved) if there is no such motion. Their loaded contacts open at second
+    order, so the network that held the packing at first order no longer does, and the LPs go on
+    (docs/containers.md §5)."""
+    lp, sol, _ = run.last
+    pins = as_pins(_pins(run.loop, cfg), cfg.nodes, cfg.dim)
+    step = ESCAPE_STEP * float(run.dia.max())
+    v = escape_motion(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.nodes, cfg.dim, cfg.zero_force, pins, step)
+    if v is None:
+        return False
+
+    def closest(x):
+        if cfg.walls is None:
+            return _closest_h(x, run.dia, cfg.box)
+        return min(_closest_h(x, run.dia, cfg.box), cfg.walls.distance_ratio(x, run.dia))
+
+    floor = min(1.0, closest(run.x))
+    for _ in range(30):
+        x = run.x + step * v[:cfg.n]
+        x = np.mod(x, cfg.box) if cfg.walls is None else cfg.walls.container.wrap(x)
+        if closest(x) >= floor:
+            run.x = x
+            run.loop.predicted = None  # the last network is not the next LP's
+            run.escapes += 1
+            return True
+        step *= 0.5
+    return False
+
+
 def _converged(sqrt_inflation: float, max_s: float, inflation_tolerance: float,
                displacement_tolerance: float) -> bool:
     """Converge: sqrt(Gamma) - 1 and the largest displacement of a non-rattler both within tolerance (docs §2.1)."""
@@ -945,6 +989,7 @@ class _Run:
     history: History = field(default_factory=History)
     tally: _Tally = field(default_factory=_Tally)
     last: tuple[_LP, LPSolution, np.ndarray] | None = None  # (the LP, its solution, its rattlers)
+    escapes: int = 0  # unheld spheres moved after convergence (_escape; not checkpointed)
 
     @classmethod
     def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
