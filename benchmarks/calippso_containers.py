@@ -72,7 +72,7 @@ def main(argv=None) -> int:
         cpu = time.process_time() - cpu
         c = r.packing.container
         check = brute_force(r.packing.positions, r.packing.diameters, c)
-        iso = c.isostatic_contacts(r.n_stable)
+        iso = c.isostatic_contacts(r.n_stable, r.free_directions)
         pen = check["worst_penetration"]
         why = [text for bad, text in ((not r.completed, r.stop_reason),
                                       (r.n_contacts != iso, f"N_c - count = {r.n_contacts - iso}"),

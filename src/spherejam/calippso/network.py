@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..core.rattlers import SPAN_TOLERANCE, rattler_mask
+from ..core.rattlers import SPAN_TOLERANCE, rattler_mask, spanned_dimensions
 from ..core.neighbours import pair_images
 from .constraints import as_pins, pair_keys, particle_force_sums
 
@@ -18,9 +18,10 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins=None):
 
     ``n`` is the LP's node count; with ``pins`` (:class:`~.constraints.Pins`, a container's LP) the nodes from
     ``pins.spheres`` on are walls: never rattlers, their contacts count for their spheres and in N_c, and the force
-    balance is taken over spheres only (a wall absorbs its forces). Rattlers: outside the (d+1)-core, or with
-    contacts that span fewer than d dimensions (partial rattlers, :func:`~spherejam.core.rattlers.rattler_mask`).
-    Isostatic: N_c = d N_s - z + 1, z the zero modes (d in a periodic box: d (N_s - 1) + 1; docs/containers.md §4).
+    balance is taken over spheres only (a wall absorbs its forces). Rattlers by the rank rule of
+    :func:`~spherejam.core.rattlers.rattler_mask` (the (d+1)-core where contacts span R^d). Isostatic:
+    N_c = d N_s - z + 1 - F, z the zero modes (d in a periodic box: d (N_s - 1) + 1; docs/containers.md §4), F the
+    free directions of the partial rattlers (:func:`free_directions`; 0 in a generic packing).
 
     Returns ``(contact_mask over pairs, rattler mask over nodes, n_contacts among non-rattlers, isostatic,
     residual)``.
@@ -29,20 +30,31 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins=None):
     contact = duals * sigma2 * n > zero_force
     ci, cj = pi[contact], pj[contact]
     walls = None
-    anchored = np.zeros(n, dtype=bool)
     if pins.spheres < n:
         walls = np.zeros(n, dtype=np.int64)
         walls[pins.spheres:] = dim + 1  # a wall never peels
-        anchored[pins.spheres:] = True
-    rattler = rattler_mask(n, ci, cj, dim + 1, walls, rij[contact], anchored)
+    rattler = rattler_mask(n, ci, cj, dim + 1, walls, rij[contact])
     stable_pair = contact & ~rattler[pi] & ~rattler[pj]
     n_contacts = int(np.count_nonzero(stable_pair))
     n_stable = pins.spheres - int(np.count_nonzero(rattler[:pins.spheres]))
-    isostatic = bool(n_stable > 0 and n_contacts == dim * n_stable - pins.zero_modes + 1)
+    free = free_directions(rij, stable_pair, pi, pj, rattler, pins.spheres)
+    isostatic = bool(n_stable > 0 and n_contacts == dim * n_stable - pins.zero_modes + 1 - free)
     # every contact force counts (in a degenerate, crystalline vertex a "rattler" can hold d collinear forces)
     weight = np.where(contact, duals, 0.0)
     residual = force_balance(rij, weight, pi, pj, n, rattler, pins.spheres)
     return contact, rattler, n_contacts, isostatic, residual
+
+
+def free_directions(rij, stable_pair, pi, pj, rattler, spheres) -> int:
+    """F = sum over non-rattler spheres of d - s_i, s_i the dimensions their contacts with non-rattlers (rows
+    ``stable_pair``, walls included) span: the directions of the partial rattlers that no contact loads
+    (docs/containers.md §4, §5). 0 in a generic packing."""
+    dim = rij.shape[1]
+    node = np.concatenate([pi[stable_pair], pj[stable_pair]])
+    vec = np.concatenate([rij[stable_pair], rij[stable_pair]])
+    keep = node < spheres
+    span = spanned_dimensions(spheres, node[keep], vec[keep])
+    return int(np.sum(dim - span[~rattler[:spheres]]))
 
 
 #: Rows closer than this relative gap are the touching pairs a degenerate dual's forces are sought on.

@@ -36,7 +36,8 @@ from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
-from .network import balanced_forces, contact_network, escape_motion, initial_pin, near_gaps, repin
+from .network import (balanced_forces, contact_network, escape_motion, free_directions, initial_pin, near_gaps,
+                      repin)
 from .schedule import (REFERENCE_INITIAL_SQRT_INFLATION, REGIME_THRESHOLDS, SCHEDULES, cutoff_and_bound,
                        nearest_gap_median, step_limits)
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
@@ -101,7 +102,7 @@ class CalippsoResult:
         Contacts among non-rattlers, N_c (sphere-wall contacts included).
     isostatic : bool
         N_c == d (N_s - 1) + 1 with N_s non-rattlers (one state of self-stress); in a container N_c == d N_s - z + 1,
-        z its zero modes (``Container.isostatic_contacts``, docs/containers.md §4).
+        z its zero modes (``Container.isostatic_contacts``, docs/containers.md §4); less ``free_directions``.
     force_balance_residual : float
         max over non-rattlers of |sum_j f_ij n_ij|, in units of the mean contact force (dimensionless).
     gaps : (G,) float array
@@ -119,6 +120,9 @@ class CalippsoResult:
         (the planes in axis order, low side first, then the curved wall), the force (in units of the mean over every
         contact, walls included; ``forces`` shares that unit) and its unit vector from the wall to the centre (the
         wall pushes the sphere along it). Empty in a periodic box.
+    free_directions : int
+        F, the directions of the partial rattlers (non-rattlers whose contacts span fewer than d dimensions) that no
+        contact loads; the isostatic count is d N_s - z + 1 - F (docs/containers.md §4, §5). 0 in a generic packing.
     """
 
     packing: Packing
@@ -142,6 +146,7 @@ class CalippsoResult:
     walls: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     wall_forces: np.ndarray = field(default_factory=lambda: np.empty(0))
     wall_vectors: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    free_directions: int = 0
 
     @property
     def completed(self) -> bool:
@@ -172,7 +177,8 @@ class CalippsoResult:
             "force_balance_residual": self.force_balance_residual,
             "n_contacts": float(self.n_contacts),
             "n_stable": float(self.n_stable),
-            "isostatic_excess": float(self.n_contacts - self.packing.container.isostatic_contacts(self.n_stable)),
+            "isostatic_excess": float(self.n_contacts - self.packing.container.isostatic_contacts(
+                self.n_stable, self.free_directions)),
             "wall_time": self.wall_time,
         }
 
@@ -361,7 +367,7 @@ def run_calippso(
     progress = Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval)
     converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
                          progress, log)
-    while converged and run.escapes < MAX_ESCAPES and _escape(run, cfg):  # converged, but not held: go on
+    while converged and _escape(run, cfg):  # converged, but not held: go on (bounded by max_iterations)
         converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
                              progress, log)
     if not converged and require_convergence:
@@ -448,6 +454,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
                                                                             cfg.nodes, cfg.dim, cfg.zero_force, pins)
     pairs, forces, vectors, stable_pair, on_wall = _contact_forces(lp, duals, contact, rattler, cfg.n)
+    free = free_directions(lp.rij, contact & ~rattler[lp.pi] & ~rattler[lp.pj], lp.pi, lp.pj, rattler, cfg.n)
     gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
                                 pair_keys(lp.pi, lp.pj, cfg.nodes)[stable_pair], cfg.nodes)
     rattler = rattler[:cfg.n]
@@ -470,7 +477,8 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
         "worst_overlap": final_report.worst_overlap, "pinned": int(run.loop.pinned),
-        **({"escapes": run.escapes} if run.escapes else {}),  # a run that made none records what it did before
+        # a run that made no escape, with no partial rattler, records what it did before
+        **({"escapes": run.escapes} if run.escapes else {}), **({"free_directions": free} if free else {}),
     }
     out.metadata["counters"] = counters
     if converged:
@@ -481,7 +489,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         packing=out, stop_reason=stop_reason, iterations=run.iteration, history=run.history.as_arrays(),
         pairs=pairs, forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts,
         isostatic=isostatic, force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial,
-        wall_time=wall, fine_tuned=fine_tuned, counters=counters, **on_wall,
+        wall_time=wall, fine_tuned=fine_tuned, counters=counters, free_directions=free, **on_wall,
     )
 
 
@@ -847,16 +855,22 @@ def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: f
 #: frees it, halved until it overlaps nothing; its loaded contacts open by ~(1e-3)^2 / 2 of a diameter, far above
 #: the LP's tolerances, so that the next LPs see the room the network gains.
 ESCAPE_STEP = 1e-3
-#: Escapes a run makes at most (each follows a converged LP sequence; a resumed run counts from 0).
-MAX_ESCAPES = 50
+
+
+#: An escape after which the LPs converged with phi grown by less than this (relative) freed nothing: the spheres it
+#: moved fell back to where their touching rows hold them, and no further escape is tried.
+ESCAPE_GAIN = 1e-9
 
 
 def _escape(run: _Run, cfg: _Settings) -> bool:
     """After convergence: if the last LP's duals load spheres that are not held (:func:`~.network.escape_motion`),
     take a step of :data:`ESCAPE_STEP` largest diameters along the motion that frees them, halved until it overlaps
-    nothing, and return True; False (nothing moved) if there is no such motion. Their loaded contacts open at second
-    order, so the network that held the packing at first order no longer does, and the LPs go on
-    (docs/containers.md §5)."""
+    nothing, and return True; False (nothing moved) if there is no such motion, or if the previous escape did not
+    raise phi by :data:`ESCAPE_GAIN`. Their loaded contacts open at second order, so the network that held the
+    packing at first order no longer does, and the LPs go on (docs/containers.md §5)."""
+    phi = _phi(run.dia, cfg)
+    if run.escapes and phi <= run.escape_phi * (1.0 + ESCAPE_GAIN):  # the last one freed nothing: they are held
+        return False
     lp, sol, _ = run.last
     pins = as_pins(_pins(run.loop, cfg), cfg.nodes, cfg.dim)
     step = ESCAPE_STEP * float(run.dia.max())
@@ -877,6 +891,7 @@ def _escape(run: _Run, cfg: _Settings) -> bool:
             run.x = x
             run.loop.predicted = None  # the last network is not the next LP's
             run.escapes += 1
+            run.escape_phi = phi
             return True
         step *= 0.5
     return False
@@ -990,6 +1005,7 @@ class _Run:
     tally: _Tally = field(default_factory=_Tally)
     last: tuple[_LP, LPSolution, np.ndarray] | None = None  # (the LP, its solution, its rattlers)
     escapes: int = 0  # unheld spheres moved after convergence (_escape; not checkpointed)
+    escape_phi: float = 0.0  # phi at the last escape
 
     @classmethod
     def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
