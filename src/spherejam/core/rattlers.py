@@ -81,7 +81,8 @@ SPAN_TOLERANCE = 1e-10
 def spanned_dimensions(n: int, node: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     """(n,) int: the dimensions the directions ``vectors`` (m, d; any length and sign) of each node's contacts span,
     ``node`` (m,) the node of each (0 for a node without contacts; threshold :data:`SPAN_TOLERANCE`)."""
-    u = np.asarray(vectors, dtype=np.float64).reshape(len(node), -1)
+    u = np.asarray(vectors, dtype=np.float64)
+    u = u if u.ndim == 2 else u.reshape(len(node), -1)
     norm = np.linalg.norm(u, axis=1)
     u = u / np.where(norm > 0, norm, 1.0)[:, None]
     gram = np.zeros((int(n), u.shape[1], u.shape[1]))
@@ -110,7 +111,8 @@ def rattler_mask(n: int, pair_i: np.ndarray, pair_j: np.ndarray, min_contacts: i
     rattler = ~k_core(int(n), pair_i, pair_j, int(min_contacts), fixed)
     if vectors is None or not np.any(rattler):
         return rattler
-    vectors = np.asarray(vectors, dtype=np.float64).reshape(len(pair_i), -1)
+    vectors = np.asarray(vectors, dtype=np.float64)
+    vectors = vectors if vectors.ndim == 2 else vectors.reshape(len(pair_i), -1)
     node = np.concatenate([pair_i, pair_j])
     both = np.concatenate([vectors, vectors])
     alive = ~rattler
