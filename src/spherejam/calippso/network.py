@@ -62,8 +62,9 @@ TOUCHING_GAP = 1e-9
 
 
 def unheld_spheres(rij, sigma2, pi, pj, duals, n, dim, zero_force, spheres=None):
-    """Spheres the duals load whose loaded contacts (as in :func:`contact_network`) span fewer than d dimensions:
-    ``(indices, unit directions (k, d))``, each direction orthogonal to all its loaded contacts (a near-null
+    """Spheres the duals load whose loaded contacts (as in :func:`contact_network`) span fewer than d dimensions, s,
+    and number at least s + 1 (partial rattlers, :func:`~spherejam.core.rattlers.rattler_mask`): ``(indices, unit
+    directions (k, d))``, each direction orthogonal to all its loaded contacts (a near-null
     eigenvector of sum_k u_k u_k^T) with the sign that closes its touching rows least (u_k . e largest at its worst,
     u_k a row's direction towards the sphere; on a flat wall: away from the wall). Nodes from ``spheres`` on are
     walls."""
@@ -81,7 +82,9 @@ def unheld_spheres(rij, sigma2, pi, pj, duals, n, dim, zero_force, spheres=None)
     np.add.at(gram, node[keep], toward[keep, :, None] * toward[keep, None, :])
     eig, vec = np.linalg.eigh(gram)
     low = eig < SPAN_TOLERANCE * eig[:, -1:]
-    found = np.flatnonzero((eig[:, -1] > 0) & low[:, 0])
+    count = np.bincount(node[keep], minlength=spheres)
+    # linearly dependent loaded contacts (s + 1 or more, s their span): forces that can balance, the rank rule's
+    found = np.flatnonzero((eig[:, -1] > 0) & low[:, 0] & (count >= dim - np.sum(low, axis=1) + 1))
     directions = np.empty((found.size, dim))
     for k, i in enumerate(found):
         rows = toward[(node == i) & touch]
