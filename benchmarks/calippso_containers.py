@@ -5,7 +5,8 @@ Poisson start, MLS (gamma_0 = 10, f = 2, gamma_f = 1e-2, the acceptance benchmar
 ``run_calippso`` with its defaults. Prints one table row per shape as it finishes:
 
     shape, N, LPs, CPU s of the certification, |sqrt(Gamma) - 1| and max |s| of the last LP, contacts (sphere-sphere +
-    sphere-wall) against the shape's isostatic count 3 N_s - z + 1, the force balance (units of the mean force),
+    sphere-wall) against the shape's isostatic count 3 N_s - z + 1 - F (F the partial rattlers' free directions,
+    docs/containers.md §4), the escapes the run made (§5), the force balance (units of the mean force),
     the worst overlap and wall penetration of the certified packing by the brute-force check of containers_common
     (no call to the package's own checks), and whether all of these pass (converged, isostatic, balanced to 1e-10,
     no overlap or penetration beyond 1e-10); the exit status is 0 only if every row passes.
@@ -62,8 +63,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     print(f"# CALiPPSO in containers: MLS outputs, N = {args.n}, {args.dist}, seed {args.seed}; {provenance()}")
     print("| shape | container | N | MLS CPU s | LPs | CPU s | abs(sqrt(Gamma)-1) | max abs(s) | contacts (walls) "
-          "| isostatic count | N_s | force balance | worst overlap | worst penetration | certified |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| isostatic count | N_s | F | escapes | force balance | worst overlap | worst penetration | certified |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     ok = True
     for shape in args.shapes:
         packing, mls_cpu = mls_output(shape, args.n, args.dist, args.seed, args.cache)
@@ -82,7 +83,8 @@ def main(argv=None) -> int:
         mls_text = "cached" if mls_cpu is None else f"{mls_cpu:.1f}"
         print(f"| {shape} | `{c.spec}` | {packing.n} | {mls_text} | {r.iterations} | {cpu:.2f} | "
               f"{abs(r.history['sqrt_inflation_minus_1'][-1]):.1e} | {r.history['max_displacement'][-1]:.1e} | "
-              f"{r.n_contacts} ({len(r.wall_contacts)}) | {iso} | {r.n_stable} | {r.force_balance_residual:.1e} | "
+              f"{r.n_contacts} ({len(r.wall_contacts)}) | {iso} | {r.n_stable} | {r.free_directions} | "
+              f"{r.counters.get('escapes', 0)} | {r.force_balance_residual:.1e} | "
               f"{check['worst_overlap']:.1e} | {'none' if math.isinf(pen) else f'{pen:.1e}'} | "
               f"{'yes' if not why else 'no: ' + ', '.join(why)} |", flush=True)
     print(f"# load average at the end: {os.getloadavg()[0]:.1f}")
