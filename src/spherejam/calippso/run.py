@@ -478,7 +478,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
         "worst_overlap": final_report.worst_overlap, "pinned": int(run.loop.pinned),
         # a run that made no escape, with no partial rattler, records what it did before
-        **({"escapes": run.escapes} if run.escapes else {}), **({"free_directions": free} if free else {}),
+        **({"escapes": run.loop.escapes} if run.loop.escapes else {}), **({"free_directions": free} if free else {}),
     }
     out.metadata["counters"] = counters
     if converged:
@@ -869,7 +869,7 @@ def _escape(run: _Run, cfg: _Settings) -> bool:
     raise phi by :data:`ESCAPE_GAIN`. Their loaded contacts open at second order, so the network that held the
     packing at first order no longer does, and the LPs go on (docs/containers.md §5)."""
     phi = _phi(run.dia, cfg)
-    if run.escapes and phi <= run.escape_phi * (1.0 + ESCAPE_GAIN):  # the last one freed nothing: they are held
+    if run.loop.escapes and phi <= run.loop.escape_phi * (1.0 + ESCAPE_GAIN):  # the last one freed nothing
         return False
     lp, sol, _ = run.last
     pins = as_pins(_pins(run.loop, cfg), cfg.nodes, cfg.dim)
@@ -890,8 +890,8 @@ def _escape(run: _Run, cfg: _Settings) -> bool:
         if closest(x) >= floor:
             run.x = x
             run.loop.predicted = None  # the last network is not the next LP's
-            run.escapes += 1
-            run.escape_phi = phi
+            run.loop.escapes += 1
+            run.loop.escape_phi = phi
             return True
         step *= 0.5
     return False
@@ -958,6 +958,8 @@ class _LoopState:
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
     contacts: np.ndarray | None = None  # contact keys among non-rattlers of the last LP (history's contact_changes)
     gauge: np.ndarray | None = None  # a container's gauge pins, flat s columns (docs/containers.md §5)
+    escapes: int = 0  # escapes of unheld spheres after convergence (_escape)
+    escape_phi: float = 0.0  # phi at the last one
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
@@ -976,7 +978,8 @@ class _LoopState:
     def attrs(self, iteration: int, lp_time: float) -> dict[str, Any]:
         return {"iteration": iteration, "lp_time": lp_time, "sqrt_inflation_prev": self.sqrt_inflation_prev,
                 "pinned": int(self.pinned), "prev_s_bound": self.prev_s_bound, "bound_hit": self.bound_hit,
-                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip}
+                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip,
+                **({"escapes": self.escapes, "escape_phi": self.escape_phi} if self.escapes else {})}
 
     @classmethod
     def restore(cls, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> _LoopState:
@@ -989,7 +992,8 @@ class _LoopState:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
                    bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
-                   arrays.get("contact_keys"), arrays.get("gauge"))
+                   arrays.get("contact_keys"), arrays.get("gauge"), int(attrs.get("escapes", 0)),
+                   float(attrs.get("escape_phi", 0.0)))
 
 
 @dataclass
@@ -1004,8 +1008,6 @@ class _Run:
     history: History = field(default_factory=History)
     tally: _Tally = field(default_factory=_Tally)
     last: tuple[_LP, LPSolution, np.ndarray] | None = None  # (the LP, its solution, its rattlers)
-    escapes: int = 0  # unheld spheres moved after convergence (_escape; not checkpointed)
-    escape_phi: float = 0.0  # phi at the last escape
 
     @classmethod
     def start(cls, packing: Packing, cfg: _Settings, initial_sqrt_inflation: float | None) -> _Run:
