@@ -43,6 +43,42 @@ def test_k_core_equals_recursive_removal(seed, k):
     assert np.array_equal(got, naive_rattlers(n, i, j, k))
 
 
+def test_the_rank_rule_keeps_a_wall_layer_sphere_on_three_coplanar_contacts():
+    """Counted by hand (docs/containers.md §4, §5). Sphere 0 of a flat wall layer touches spheres 1-3 at 120 degrees,
+    all centres on the plane z = r; 1-3 and the wall (node 4) are held (fixed contacts). Its three contacts span 2
+    dimensions: too few for the k-core (3 < d + 1 = 4), enough for the rank rule (s + 1 = 3), which keeps it with one
+    free direction (z). Its wall contact makes the span 3 and the count 4: kept, no free direction. Two collinear
+    contacts (span 1) need 2; three in general position (span 3) need 4: a rattler."""
+    from spherejam.core.rattlers import spanned_dimensions
+
+    angles = np.deg2rad([0.0, 120.0, 240.0])
+    plane = np.c_[np.cos(angles), np.sin(angles), np.zeros(3)]
+    fixed = np.array([0, 4, 4, 4, 4])
+    i, j = np.zeros(3, dtype=np.int64), np.arange(1, 4)
+    assert contacts.rattler_mask(5, i, j, 4, fixed)[0]  # the k-core: a rattler
+    assert not contacts.rattler_mask(5, i, j, 4, fixed, -plane)[0]  # the rank rule: held in its plane
+    assert spanned_dimensions(5, i, plane)[0] == 2  # 3 - 2 = 1 free direction
+    wall_i, wall_j = np.r_[i, 0], np.r_[j, 4]
+    with_wall = np.r_[plane, [[0.0, 0.0, 1.0]]]
+    assert not contacts.rattler_mask(5, wall_i, wall_j, 4, fixed, with_wall)[0]
+    assert spanned_dimensions(5, wall_i, with_wall)[0] == 3
+    # the isostatic count of sphere 0 alone (its partners held, no zero mode): d N_s - z + 1 - F = 3 - 0 + 1 - 1 = 3
+    # contacts without the wall's, 3 + 1 - 0 = 4 with it: the contacts it has either way
+    assert 3 * 1 - 0 + 1 - (3 - 2) == len(i) and 3 * 1 - 0 + 1 - 0 == len(wall_i)
+    collinear = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert not contacts.rattler_mask(5, i[:2], j[:2], 4, fixed, collinear)[0]
+    tilted = plane + np.array([0.0, 0.0, 0.3])  # out of the plane: span 3, three contacts are too few
+    assert contacts.rattler_mask(5, i, j, 4, fixed, tilted)[0]
+    # recursively: sphere 0 (three contacts in general position) goes, and then sphere 1, left with two contacts
+    # spanning 2 dimensions; were those two collinear, it would stay, held along their line
+    chain_i, chain_j = np.array([0, 0, 0, 1, 1]), np.array([1, 2, 3, 2, 3])
+    chain = np.array([[1.0, 0.0, 0.3], [0.0, 1.0, 0.3], [-1.0, 0.0, 0.3], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+    held = np.array([0, 0, 4, 4, 4])
+    assert contacts.rattler_mask(5, chain_i, chain_j, 4, held, chain)[:2].tolist() == [True, True]
+    chain[4] = [0.0, -1.0, 0.0]
+    assert contacts.rattler_mask(5, chain_i, chain_j, 4, held, chain)[:2].tolist() == [True, False]
+
+
 @pytest.mark.parametrize("dim", [2, 3, 4, 5])
 def test_contacts_match_brute_force(dim):
     rng = np.random.default_rng(dim)

@@ -244,3 +244,91 @@ def test_a_container_run_resumes_from_its_checkpoint_on_the_same_path(certified,
     bigger = ls.replace(container=dataclasses.replace(ls.container, radius=1.01 * ls.container.radius))
     with pytest.raises(PackingFileError, match="different input or parameters"):
         run_calippso(bigger, checkpoint=ckpt, progress_interval=1e9)
+
+
+def _states(r):
+    """(states of self-stress, floppy modes) of the certified network, by the rank of its rigidity matrix built here:
+    one row per contact among non-rattlers (+u on its sphere, -u on its partner; a wall row only +u), 3 columns per
+    non-rattler."""
+    stable = np.flatnonzero(~r.rattlers)
+    col = np.full(r.packing.n, -1)
+    col[stable] = np.arange(stable.size)
+    rows = np.zeros((len(r.pairs) + len(r.wall_contacts), 3 * stable.size))
+    for k, ((i, j), u) in enumerate(zip(r.pairs, r.contact_vectors)):
+        rows[k, 3 * col[i]:3 * col[i] + 3] += u
+        rows[k, 3 * col[j]:3 * col[j] + 3] -= u
+    for k, (i, u) in enumerate(zip(r.wall_contacts, r.wall_vectors), start=len(r.pairs)):
+        rows[k, 3 * col[i]:3 * col[i] + 3] = u
+    sv = np.linalg.svd(rows, compute_uv=False)
+    rank = int(np.sum(sv > 1e-9 * sv[0]))
+    return rows.shape[0] - rank, rows.shape[1] - rank
+
+
+@pytest.mark.parametrize("name", list(SHAPES))
+def test_a_certified_network_has_one_state_of_self_stress_and_only_the_zero_modes(certified, name):
+    """The count of docs/containers.md §4 as ranks: the certified contact network has exactly one state of self-stress
+    (the pressure) and no floppy mode but the shape's zero modes and the partial rattlers' free directions."""
+    _, r = certified[name]
+    assert _states(r) == (1, SHAPES[name][2] + r.free_directions)
+
+
+def _layer(above_gap, pin_above):
+    """The LP rows of a wall-layer sphere 0 (r = 0.5, centre at z = r) loaded on three in-plane contacts at 120
+    degrees to spheres 1-3 (pinned), touching the wall z = 0 (node 5) at zero force, sphere 4 straight above it at
+    relative gap ``above_gap`` (zero force), pinned or not."""
+    from spherejam.calippso.constraints import Pins
+
+    angles = np.deg2rad([0.0, 120.0, 240.0])
+    plane = np.c_[np.cos(angles), np.sin(angles), np.zeros(3)]
+    rij = np.r_[-plane, [[0.0, 0.0, -(1.0 + above_gap)]], [[0.0, 0.0, 0.5]]]
+    pi, pj = np.zeros(5, dtype=np.int64), np.array([1, 2, 3, 4, 5])
+    sigma2 = np.array([1.0, 1.0, 1.0, 1.0, 0.25])
+    duals = np.array([1.0, 1.0, 1.0, 0.0, 0.0])  # balanced: the three directions sum to 0
+    pinned = [1, 2, 3, 5] + ([4] if pin_above else [])
+    pins = Pins(np.sort(np.concatenate([np.arange(3 * k, 3 * k + 3) for k in pinned])), 5, 3)
+    return rij, sigma2, pi, pj, duals, pins
+
+
+def test_a_wall_layer_sphere_loaded_in_its_plane_escapes_unless_a_touching_row_holds_it():
+    """docs/containers.md §5: sphere 0 is unheld (its loaded contacts span the plane only) and its free direction is
+    away from the wall; the escape motion lifts it (and only in z: its loaded rows keep their length); a sphere
+    touching it from above makes way if it can move, and holds it (no escape) if it cannot."""
+    from spherejam.calippso.network import escape_motion, unheld_spheres
+
+    rij, sigma2, pi, pj, duals, pins = _layer(0.1, pin_above=True)
+    idx, free = unheld_spheres(rij, sigma2, pi, pj, duals, 6, 3, 1e-10, 5)
+    assert idx.tolist() == [0] and np.allclose(free, [[0.0, 0.0, 1.0]])
+    v = escape_motion(rij, sigma2, pi, pj, duals, 6, 3, 1e-10, pins, 1e-3)
+    np.testing.assert_allclose(v[0], [0.0, 0.0, 1.0], atol=1e-12)
+    assert not np.any(v[[1, 2, 3, 5]])  # pinned
+    rij, sigma2, pi, pj, duals, pins = _layer(0.0, pin_above=False)  # sphere 4 touches, free to go up
+    v = escape_motion(rij, sigma2, pi, pj, duals, 6, 3, 1e-10, pins, 1e-3)
+    assert v[0, 2] == pytest.approx(1.0) and v[4, 2] >= v[0, 2] - 1e-12
+    rij, sigma2, pi, pj, duals, pins = _layer(0.0, pin_above=True)  # sphere 4 touches and cannot move
+    assert escape_motion(rij, sigma2, pi, pj, duals, 6, 3, 1e-10, pins, 1e-3) is None
+
+
+def test_a_monodisperse_box_is_certified_after_its_wall_layer_escapes(monkeypatch):
+    """An MLS output (N = 150, monodisperse, closed box) whose LPs converge with a wall-layer sphere loaded only in
+    its plane (docs/containers.md §5): without the escape the run stops there; with it phi grows (that state was not
+    jammed) and the result is certified, with one state of self-stress by rank."""
+    import spherejam.calippso.run as run_module
+    from spherejam.engines.closest_jamming import find_closest_jamming
+
+    start = poisson_packing(150, psd="lognormal:sigma=0", container="box:x=4.018,y=6.278", seed=2)
+    mls = find_closest_jamming(start, initial_rate=10.0, decrease_factor=2.0, final_rate=1e-2, seed=3,
+                               progress_interval=1e9).packing
+    r = run_calippso(mls, progress_interval=1e9)
+    c = r.packing.container
+    assert r.completed and r.counters["escapes"] >= 1
+    assert r.isostatic and r.n_contacts == 3 * r.n_stable + 1 - r.free_directions == c.isostatic_contacts(
+        r.n_stable, r.free_directions)
+    assert r.force_balance_residual <= 1e-10 and r.packing.check(1e-10).ok
+    assert c.wall_penetration(r.packing.positions, r.packing.diameters)[0] <= 1e-10
+    assert _states(r) == (1, r.free_directions)
+    # where the LPs first converge, the count holds with the unheld sphere's free direction taken off it, but the
+    # packing is not jammed: the escape lets phi grow
+    monkeypatch.setattr(run_module, "_escape", lambda run, cfg: False)
+    stuck = run_calippso(mls, progress_interval=1e9)
+    assert stuck.completed and stuck.free_directions >= 1
+    assert r.packing.phi > stuck.packing.phi * (1.0 + 1e-8)  # measured: 3.2e-8 (a 1e-9 gain ends the escapes)

@@ -15,7 +15,10 @@ the reference code's 1e-7 (docs/algorithms.md §6.1). Without a pressure the sca
 
 **Rattlers** (:func:`rattler_mask`, from :mod:`spherejam.core.rattlers`): a particle with fewer than
 ``min_contacts`` (default d + 1) contacts with non-rattlers is a rattler, recursively. The fixed point is the k-core
-of the contact graph, k = d + 1, computed by peeling in O(N + K).
+of the contact graph, k = d + 1, computed by peeling in O(N + K). By the rank rule of that module, a particle whose
+contacts span only s < d dimensions needs s + 1 of them (a partial rattler: on a flat wall of a monodisperse
+packing, three contacts within the wall layer); its d - s free directions, F in all, come off the isostatic count
+(docs/containers.md §4). In a generic packing F = 0 and the rule is the k-core's.
 
 **Isostaticity** (paper, Appendix E): the N' non-rattlers of a jammed periodic packing need at least
 K_0 = d(N' - 1) + 1 contacts among themselves; a random jammed packing has exactly K_0, so Z = 2K'/N' -> 2d.
@@ -40,7 +43,7 @@ import numpy as np
 from ..core import neighbours
 from ..core.errors import InputError, require
 from ..core.packing import Packing
-from ..core.rattlers import rattler_mask
+from ..core.rattlers import rattler_mask, spanned_dimensions
 
 #: Largest gap examined by the tolerance scan (relative to D_ij).
 MAX_SCAN_GAP = 1e-3
@@ -74,9 +77,46 @@ def near_pairs(packing: Packing, max_gap: float) -> tuple[np.ndarray, np.ndarray
     Returns ``(i, j, h)`` sorted by (i, j, h).
     """
     require(math.isfinite(max_gap) and max_gap > -1, "max_gap", max_gap, "must be a finite number > -1")
+    i, j, h, _ = _near_pairs(packing, max_gap)
+    return i, j, h
+
+
+def _near_pairs(packing: Packing, max_gap: float):
+    """:func:`near_pairs` and each image's separation vector: ``(i, j, h, vectors)``."""
     i, j, d = neighbours.pair_images(packing.positions, packing.diameters, packing.frame, 1.0 + max_gap)
     dij = 0.5 * (packing.diameters[i] + packing.diameters[j])
-    return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0
+    return i, j, np.sqrt(np.einsum("ij,ij->i", d, d)) / dij - 1.0, d
+
+
+def wall_directions(packing: Packing, wall_i: np.ndarray, wall: np.ndarray) -> np.ndarray:
+    """(K, d): the unit normal of each sphere-wall contact (sphere ``wall_i``, wall ``wall`` numbered as in
+    :func:`wall_gaps`), from the wall towards the sphere."""
+    c, dim = packing.container, packing.dim
+    out = np.zeros((len(wall_i), dim))
+    plane = wall < 2 * dim
+    out[plane, wall[plane] // 2] = np.where(wall[plane] % 2 == 0, 1.0, -1.0)
+    if np.any(~plane):
+        p = c.centre - packing.positions[wall_i[~plane]]  # inwards, from the curved wall towards the centre
+        if c.curved == "cylinder":
+            p[:, c.axis] = 0.0
+        out[~plane] = p / np.linalg.norm(p, axis=1)[:, None]
+    return out
+
+
+def _rattlers(packing: Packing, i, j, vectors, wall_i, wall, k):
+    """Rattlers by the rank rule (module docstring), walls as nodes that never peel, and F, the free directions of
+    the partial rattlers."""
+    n, dim = packing.n, packing.dim
+    walls = n + 2 * dim + 1  # the wall numbers of wall_gaps after the spheres
+    fixed = np.zeros(walls, dtype=np.int64)
+    fixed[n:] = k
+    pair_i, pair_j = np.concatenate([i, wall_i]), np.concatenate([j, n + wall])
+    vec = np.concatenate([np.reshape(vectors, (-1, dim)), wall_directions(packing, wall_i, wall)])
+    rattler = rattler_mask(walls, pair_i, pair_j, k, fixed, vec)
+    live = ~rattler[pair_i] & ~rattler[pair_j]  # pair_i is always a sphere
+    span = spanned_dimensions(n, np.concatenate([pair_i[live], pair_j[live][pair_j[live] < n]]),
+                              np.concatenate([vec[live], vec[live][pair_j[live] < n]]))
+    return rattler[:n], int(np.sum(dim - span[~rattler[:n]]))
 
 
 def wall_gaps(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
@@ -179,7 +219,7 @@ class Coordination:
         return {k: float(v) for k, v in asdict(self).items()}
 
 
-def _coordination(n, dim, tolerance, pair_i, pair_j, rattler, container=None, wall_i=None) -> Coordination:
+def _coordination(n, dim, tolerance, pair_i, pair_j, rattler, container=None, wall_i=None, free=0) -> Coordination:
     keep = ~(rattler[pair_i] | rattler[pair_j])
     n_nr = int(n - np.count_nonzero(rattler))
     wall_i = np.empty(0, dtype=np.int64) if wall_i is None else wall_i
@@ -188,9 +228,9 @@ def _coordination(n, dim, tolerance, pair_i, pair_j, rattler, container=None, wa
     if n_nr == 0:
         k0 = 0
     elif container is None:
-        k0 = dim * (n_nr - 1) + 1
+        k0 = dim * (n_nr - 1) + 1 - free
     else:
-        k0 = container.isostatic_contacts(n_nr)
+        k0 = container.isostatic_contacts(n_nr, free)
     return Coordination(
         contact_tolerance=float(tolerance),
         n_contacts=len(pair_i) + k_wall,
@@ -237,21 +277,21 @@ def analyze_contacts(
     k = packing.dim + 1 if min_contacts is None else min_contacts
     container = packing.container if packing.container.has_walls else None
     if contact_tolerance is None:
-        i, j, h = near_pairs(packing, MAX_SCAN_GAP * 10.0**0.5)
+        i, j, h, vec = _near_pairs(packing, MAX_SCAN_GAP * 10.0**0.5)
         _, hw = wall_gaps(packing)
         tol = choose_tolerance(np.concatenate([h, hw.ravel()]), p)
-        keep = h < tol
-        i, j, h = i[keep], j[keep], h[keep]
     else:
         _check_tolerance(contact_tolerance)
         tol = float(contact_tolerance)
-        i, j, h = contact_pairs(packing, tol)
+        i, j, h, vec = _near_pairs(packing, tol)
+    keep = h < tol
+    i, j, h, vec = i[keep], j[keep], h[keep], vec[keep]
     wi, ww, wh = wall_contacts(packing, tol)
     walls = np.bincount(wi, minlength=packing.n)
-    rattler = rattler_mask(packing.n, i, j, k, walls)
+    rattler, free = _rattlers(packing, i, j, vec, wi, ww, k)
     per_particle = np.bincount(i, minlength=packing.n) + np.bincount(j, minlength=packing.n) + walls
     return ContactAnalysis(
-        coordination=_coordination(packing.n, packing.dim, tol, i, j, rattler, container, wi),
+        coordination=_coordination(packing.n, packing.dim, tol, i, j, rattler, container, wi, free),
         pair_i=i, pair_j=j, gap=h, rattler=rattler, contacts_per_particle=per_particle, pressure=p,
         wall_i=wi, wall=ww, wall_gap=wh,
     )
@@ -273,15 +313,15 @@ def tolerance_scan(
         _check_tolerance(float(g))
     k = packing.dim + 1 if min_contacts is None else min_contacts
     container = packing.container if packing.container.has_walls else None
-    i, j, h = near_pairs(packing, float(grid.max()))
-    wi, _, wh = wall_contacts(packing, float(grid.max()))
+    i, j, h, vec = _near_pairs(packing, float(grid.max()))
+    wi, ww, wh = wall_contacts(packing, float(grid.max()))
     rows = []
     for g in grid:
         keep = h < g
         ii, jj = i[keep], j[keep]
         wg = wi[wh < g]
-        rattler = rattler_mask(packing.n, ii, jj, k, np.bincount(wg, minlength=packing.n))
-        rows.append(_coordination(packing.n, packing.dim, g, ii, jj, rattler, container, wg))
+        rattler, free = _rattlers(packing, ii, jj, vec[keep], wg, ww[wh < g], k)
+        rows.append(_coordination(packing.n, packing.dim, g, ii, jj, rattler, container, wg, free))
     return {name: np.array([getattr(r, name) for r in rows]) for name in Coordination.__dataclass_fields__}
 
 

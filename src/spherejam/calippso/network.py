@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..core.rattlers import rattler_mask
+from ..core.rattlers import SPAN_TOLERANCE, rattler_mask, spanned_dimensions
 from ..core.neighbours import pair_images
 from .constraints import as_pins, pair_keys, particle_force_sums
 
@@ -18,8 +18,10 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins=None):
 
     ``n`` is the LP's node count; with ``pins`` (:class:`~.constraints.Pins`, a container's LP) the nodes from
     ``pins.spheres`` on are walls: never rattlers, their contacts count for their spheres and in N_c, and the force
-    balance is taken over spheres only (a wall absorbs its forces). Isostatic: N_c = d N_s - z + 1, z the zero modes
-    (d in a periodic box: d (N_s - 1) + 1; docs/containers.md §4).
+    balance is taken over spheres only (a wall absorbs its forces). Rattlers by the rank rule of
+    :func:`~spherejam.core.rattlers.rattler_mask` (the (d+1)-core where contacts span R^d). Isostatic:
+    N_c = d N_s - z + 1 - F, z the zero modes (d in a periodic box: d (N_s - 1) + 1; docs/containers.md §4), F the
+    free directions of the partial rattlers (:func:`free_directions`; 0 in a generic packing).
 
     Returns ``(contact_mask over pairs, rattler mask over nodes, n_contacts among non-rattlers, isostatic,
     residual)``.
@@ -31,19 +33,107 @@ def contact_network(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins=None):
     if pins.spheres < n:
         walls = np.zeros(n, dtype=np.int64)
         walls[pins.spheres:] = dim + 1  # a wall never peels
-    rattler = rattler_mask(n, ci, cj, dim + 1, walls)
+    rattler = rattler_mask(n, ci, cj, dim + 1, walls, rij[contact])
     stable_pair = contact & ~rattler[pi] & ~rattler[pj]
     n_contacts = int(np.count_nonzero(stable_pair))
     n_stable = pins.spheres - int(np.count_nonzero(rattler[:pins.spheres]))
-    isostatic = bool(n_stable > 0 and n_contacts == dim * n_stable - pins.zero_modes + 1)
+    free = free_directions(rij, stable_pair, pi, pj, rattler, pins.spheres)
+    isostatic = bool(n_stable > 0 and n_contacts == dim * n_stable - pins.zero_modes + 1 - free)
     # every contact force counts (in a degenerate, crystalline vertex a "rattler" can hold d collinear forces)
     weight = np.where(contact, duals, 0.0)
     residual = force_balance(rij, weight, pi, pj, n, rattler, pins.spheres)
     return contact, rattler, n_contacts, isostatic, residual
 
 
+def free_directions(rij, stable_pair, pi, pj, rattler, spheres) -> int:
+    """F = sum over non-rattler spheres of d - s_i, s_i the dimensions their contacts with non-rattlers (rows
+    ``stable_pair``, walls included) span: the directions of the partial rattlers that no contact loads
+    (docs/containers.md §4, §5). 0 in a generic packing."""
+    dim = rij.shape[1]
+    node = np.concatenate([pi[stable_pair], pj[stable_pair]])
+    vec = np.concatenate([rij[stable_pair], rij[stable_pair]])
+    keep = node < spheres
+    span = spanned_dimensions(spheres, node[keep], vec[keep])
+    return int(np.sum(dim - span[~rattler[:spheres]]))
+
+
 #: Rows closer than this relative gap are the touching pairs a degenerate dual's forces are sought on.
 TOUCHING_GAP = 1e-9
+
+
+def unheld_spheres(rij, sigma2, pi, pj, duals, n, dim, zero_force, spheres=None):
+    """Spheres the duals load whose loaded contacts (as in :func:`contact_network`) span fewer than d dimensions, s,
+    and number at least s + 1 (partial rattlers, :func:`~spherejam.core.rattlers.rattler_mask`): ``(indices, unit
+    directions (k, d))``, each direction orthogonal to all its loaded contacts (a near-null
+    eigenvector of sum_k u_k u_k^T) with the sign that closes its touching rows least (u_k . e largest at its worst,
+    u_k a row's direction towards the sphere; on a flat wall: away from the wall). Nodes from ``spheres`` on are
+    walls."""
+    spheres = n if spheres is None else spheres
+    contact = duals * sigma2 * n > zero_force
+    length = np.linalg.norm(rij, axis=1)
+    u = rij / np.where(length > 0, length, 1.0)[:, None]
+    touching = length * length < sigma2 * (1.0 + TOUCHING_GAP) ** 2
+    node = np.concatenate([pi, pj])
+    toward = np.concatenate([u, -u])  # a row's direction towards each of its two nodes
+    loaded = np.concatenate([contact, contact])
+    touch = np.concatenate([touching, touching])
+    keep = loaded & (node < spheres)
+    gram = np.zeros((spheres, dim, dim))
+    np.add.at(gram, node[keep], toward[keep, :, None] * toward[keep, None, :])
+    eig, vec = np.linalg.eigh(gram)
+    low = eig < SPAN_TOLERANCE * eig[:, -1:]
+    count = np.bincount(node[keep], minlength=spheres)
+    # linearly dependent loaded contacts (s + 1 or more, s their span): forces that can balance, the rank rule's
+    found = np.flatnonzero((eig[:, -1] > 0) & low[:, 0] & (count >= dim - np.sum(low, axis=1) + 1))
+    directions = np.empty((found.size, dim))
+    for k, i in enumerate(found):
+        rows = toward[(node == i) & touch]
+        best = -np.inf
+        for e in vec[i][:, low[i]].T:
+            for cand in (e, -e):
+                worst = float(np.min(rows @ cand)) if len(rows) else 1.0
+                if worst > best:
+                    best, directions[k] = worst, cand
+    return found.astype(np.int64), directions
+
+
+def escape_motion(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins, step):
+    """A first-order motion that frees the unheld spheres (:func:`unheld_spheres`), or None if there is none.
+
+    v (n, d) keeps every loaded row's length to first order (u_k . (v_i - v_j) = 0), closes no row by more than its
+    gap in a step ``step`` v (u_k . (v_i - v_j) >= -gap_k / step, lengths in the rows' units; a touching row cannot
+    close), fixes ``pins`` (:class:`~.constraints.Pins`: the gauge and the walls), |v_{i,mu}| <= 1, and moves the
+    unheld spheres as far as it can along their directions (maximises sum_i e_i . v_i). Along such a v the loaded
+    contacts of a moved unheld sphere open at second order, and so does the network the duals load, whose single
+    state of self-stress needs them (docs/containers.md §5). A motion is returned only if that sum is positive;
+    a sphere its touching rows hold in place (through every chain of spheres that could make way) is not moved."""
+    from scipy.optimize import linprog
+    from scipy.sparse import coo_matrix
+
+    idx, free = unheld_spheres(rij, sigma2, pi, pj, duals, n, dim, zero_force, pins.spheres)
+    if idx.size == 0:
+        return None
+    contact = duals * sigma2 * n > zero_force
+    length = np.linalg.norm(rij, axis=1)
+    u = rij / np.where(length > 0, length, 1.0)[:, None]
+    slack = length - np.sqrt(sigma2)
+    near = contact | (slack < step * 2.0 * math.sqrt(dim))  # the rows a step can reach
+    rows = np.flatnonzero(near)
+    k = np.arange(rows.size)
+    cols = np.concatenate([pi[rows, None] * dim + np.arange(dim), pj[rows, None] * dim + np.arange(dim)])
+    vals = np.concatenate([u[rows], -u[rows]])
+    a = coo_matrix((vals.ravel(), (np.repeat(np.concatenate([k, k]), dim), cols.ravel())),
+                   shape=(rows.size, n * dim)).tocsr()
+    eq = contact[rows]
+    cost = np.zeros(n * dim)
+    cost[(idx[:, None] * dim + np.arange(dim)).ravel()] = -free.ravel()
+    bounds = np.tile([-1.0, 1.0], (n * dim, 1))
+    bounds[pins.columns] = 0.0
+    res = linprog(cost, A_ub=-a[~eq], b_ub=np.maximum(slack[rows][~eq], 0.0) / step, A_eq=a[eq],
+                  b_eq=np.zeros(int(eq.sum())), bounds=bounds, method="highs")
+    if res.status != 0 or -res.fun <= 1e-9:
+        return None
+    return res.x.reshape(n, dim)
 
 
 def balanced_forces(rij, sigma2, pi, pj, n, spheres=None):

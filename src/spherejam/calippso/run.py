@@ -32,11 +32,12 @@ from ..core.neighbours import Frame, pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
-from .constraints import Pins, closable_reach, cutoff_rows, pair_keys
+from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
-from .network import balanced_forces, contact_network, initial_pin, near_gaps, repin
+from .network import (balanced_forces, contact_network, escape_motion, free_directions, initial_pin, near_gaps,
+                      repin)
 from .schedule import (REFERENCE_INITIAL_SQRT_INFLATION, REGIME_THRESHOLDS, SCHEDULES, cutoff_and_bound,
                        nearest_gap_median, step_limits)
 from .solution import LPBasis, LPSolution, METHOD_CODES, SOLVER_CODES
@@ -108,7 +109,7 @@ class CalippsoResult:
         Contacts among non-rattlers, N_c (sphere-wall contacts included).
     isostatic : bool
         N_c == d (N_s - 1) + 1 with N_s non-rattlers (one state of self-stress); in a container N_c == d N_s - z + 1,
-        z its zero modes (``Container.isostatic_contacts``, docs/containers.md §4).
+        z its zero modes (``Container.isostatic_contacts``, docs/containers.md §4); less ``free_directions``.
     force_balance_residual : float
         max over non-rattlers of |sum_j f_ij n_ij|, in units of the mean contact force (dimensionless).
     gaps : (G,) float array
@@ -126,6 +127,9 @@ class CalippsoResult:
         (the planes in axis order, low side first, then the curved wall), the force (in units of the mean over every
         contact, walls included; ``forces`` shares that unit) and its unit vector from the wall to the centre (the
         wall pushes the sphere along it). Empty in a periodic box.
+    free_directions : int
+        F, the directions of the partial rattlers (non-rattlers whose contacts span fewer than d dimensions) that no
+        contact loads; the isostatic count is d N_s - z + 1 - F (docs/containers.md §4, §5). 0 in a generic packing.
     """
 
     packing: Packing
@@ -149,6 +153,7 @@ class CalippsoResult:
     walls: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
     wall_forces: np.ndarray = field(default_factory=lambda: np.empty(0))
     wall_vectors: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    free_directions: int = 0
 
     @property
     def completed(self) -> bool:
@@ -179,7 +184,8 @@ class CalippsoResult:
             "force_balance_residual": self.force_balance_residual,
             "n_contacts": float(self.n_contacts),
             "n_stable": float(self.n_stable),
-            "isostatic_excess": float(self.n_contacts - self.packing.container.isostatic_contacts(self.n_stable)),
+            "isostatic_excess": float(self.n_contacts - self.packing.container.isostatic_contacts(
+                self.n_stable, self.free_directions)),
             "wall_time": self.wall_time,
         }
 
@@ -372,8 +378,12 @@ def run_calippso(
         parameters = {**parameters, "trajectory_changes": run.changes}
     log = LPLog(lp_log)
     log.start(run.history.as_arrays())
+    progress = Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval)
     converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
-                         Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval), log)
+                         progress, log)
+    while converged and _escape(run, cfg):  # converged, but not held: go on (bounded by max_iterations)
+        converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
+                             progress, log)
     if not converged and require_convergence:
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
                               f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
@@ -478,6 +488,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         contact, rattler, n_contacts, isostatic, residual = contact_network(lp.rij, lp.sigma2, lp.pi, lp.pj, duals,
                                                                             cfg.nodes, cfg.dim, cfg.zero_force, pins)
     pairs, forces, vectors, stable_pair, on_wall = _contact_forces(lp, duals, contact, rattler, cfg.n)
+    free = free_directions(lp.rij, contact & ~rattler[lp.pi] & ~rattler[lp.pj], lp.pi, lp.pj, rattler, cfg.n)
     gaps, gap_pairs = near_gaps(run.x, run.dia, cfg.box, gap_range, rattler,
                                 pair_keys(lp.pi, lp.pj, cfg.nodes)[stable_pair], cfg.nodes)
     rattler = rattler[:cfg.n]
@@ -500,6 +511,8 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         "phi_initial": phi_initial, "phi_final": out.phi, "n_contacts": n_contacts,
         "n_rattlers": int(rattler.sum()), "isostatic": isostatic, "force_balance_residual": residual,
         "worst_overlap": final_report.worst_overlap, "pinned": int(run.loop.pinned),
+        # a run that made no escape, with no partial rattler, records what it did before
+        **({"escapes": run.loop.escapes} if run.loop.escapes else {}), **({"free_directions": free} if free else {}),
     }
     out.metadata["counters"] = counters
     if converged:
@@ -510,7 +523,7 @@ def _result(packing, run: _Run, cfg: _Settings, parameters, ckpt, converged: boo
         packing=out, stop_reason=stop_reason, iterations=run.iteration, history=run.history.as_arrays(),
         pairs=pairs, forces=forces, contact_vectors=vectors, rattlers=rattler, n_contacts=n_contacts,
         isostatic=isostatic, force_balance_residual=residual, gaps=gaps, gap_pairs=gap_pairs, phi_initial=phi_initial,
-        wall_time=wall, fine_tuned=fine_tuned, counters=counters, **on_wall,
+        wall_time=wall, fine_tuned=fine_tuned, counters=counters, free_directions=free, **on_wall,
     )
 
 
@@ -872,6 +885,52 @@ def _hand_over(loop, lp: _LP, at_bound: int, contact, rattler, sqrt_inflation: f
         loop.gauge = cfg.walls.gauge(x, loop.pinned, sphere_rattler).gauge
 
 
+#: An unheld sphere's escape (docs/containers.md §5): a step of this many largest diameters along the motion that
+#: frees it, halved until it overlaps nothing; its loaded contacts open by ~(1e-3)^2 / 2 of a diameter, far above
+#: the LP's tolerances, so that the next LPs see the room the network gains.
+ESCAPE_STEP = 1e-3
+
+
+#: An escape after which the LPs converged with phi grown by less than this (relative) freed nothing: the spheres it
+#: moved fell back to where their touching rows hold them, and no further escape is tried.
+ESCAPE_GAIN = 1e-9
+
+
+def _escape(run: _Run, cfg: _Settings) -> bool:
+    """After convergence: if the last LP's duals load spheres that are not held (:func:`~.network.escape_motion`),
+    take a step of :data:`ESCAPE_STEP` largest diameters along the motion that frees them, halved until it overlaps
+    nothing, and return True; False (nothing moved) if there is no such motion, or if the previous escape did not
+    raise phi by :data:`ESCAPE_GAIN`. Their loaded contacts open at second order, so the network that held the
+    packing at first order no longer does, and the LPs go on (docs/containers.md §5)."""
+    phi = _phi(run.dia, cfg)
+    if run.loop.escapes and phi <= run.loop.escape_phi * (1.0 + ESCAPE_GAIN):  # the last one freed nothing
+        return False
+    lp, sol, _ = run.last
+    pins = as_pins(_pins(run.loop, cfg), cfg.nodes, cfg.dim)
+    step = ESCAPE_STEP * float(run.dia.max())
+    v = escape_motion(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.nodes, cfg.dim, cfg.zero_force, pins, step)
+    if v is None:
+        return False
+
+    def closest(x):
+        if cfg.walls is None:
+            return _closest_h(x, run.dia, cfg.box)
+        return min(_closest_h(x, run.dia, cfg.box), cfg.walls.distance_ratio(x, run.dia))
+
+    floor = min(1.0, closest(run.x))
+    for _ in range(30):
+        x = run.x + step * v[:cfg.n]
+        x = np.mod(x, cfg.box) if cfg.walls is None else cfg.walls.container.wrap(x)
+        if closest(x) >= floor:
+            run.x = x
+            run.loop.predicted = None  # the last network is not the next LP's
+            run.loop.escapes += 1
+            run.loop.escape_phi = phi
+            return True
+        step *= 0.5
+    return False
+
+
 def _converged(sqrt_inflation: float, max_s: float, inflation_tolerance: float,
                displacement_tolerance: float) -> bool:
     """Converge: sqrt(Gamma) - 1 and the largest displacement of a non-rattler both within tolerance (docs §2.1)."""
@@ -933,6 +992,8 @@ class _LoopState:
     warm_skip: int = 0  # LPs left to solve without a warm start (back-off after failures)
     contacts: np.ndarray | None = None  # contact keys among non-rattlers of the last LP (history's contact_changes)
     gauge: np.ndarray | None = None  # a container's gauge pins, flat s columns (docs/containers.md §5)
+    escapes: int = 0  # escapes of unheld spheres after convergence (_escape)
+    escape_phi: float = 0.0  # phi at the last one
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
@@ -951,7 +1012,8 @@ class _LoopState:
     def attrs(self, iteration: int, lp_time: float) -> dict[str, Any]:
         return {"iteration": iteration, "lp_time": lp_time, "sqrt_inflation_prev": self.sqrt_inflation_prev,
                 "pinned": int(self.pinned), "prev_s_bound": self.prev_s_bound, "bound_hit": self.bound_hit,
-                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip}
+                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip,
+                **({"escapes": self.escapes, "escape_phi": self.escape_phi} if self.escapes else {})}
 
     @classmethod
     def restore(cls, arrays: dict[str, np.ndarray], attrs: dict[str, Any]) -> _LoopState:
@@ -964,7 +1026,8 @@ class _LoopState:
             basis = LPBasis(arrays["basis_keys"], arrays["basis_rows"], arrays["basis_cols"])
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
                    bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
-                   arrays.get("contact_keys"), arrays.get("gauge"))
+                   arrays.get("contact_keys"), arrays.get("gauge"), int(attrs.get("escapes", 0)),
+                   float(attrs.get("escape_phi", 0.0)))
 
 
 @dataclass

@@ -237,11 +237,12 @@ class Container:
             modes += 3 if self.dim == 3 else 1
         return modes
 
-    def isostatic_contacts(self, n: int) -> int:
+    def isostatic_contacts(self, n: int, free: int = 0) -> int:
         """The contact count (sphere-sphere and sphere-wall) of an isostatic jammed packing of ``n`` non-rattlers:
         d n degrees of freedom, less the zero modes, plus one for the pressure (Gamma in CALiPPSO's LP); d (n - 1)
-        + 1 in a periodic box."""
-        return self.dim * n - self.zero_modes + 1
+        + 1 in a periodic box. Less ``free``, the directions of partial rattlers that no contact loads
+        (docs/containers.md §4)."""
+        return self.dim * n - self.zero_modes + 1 - free
 
     def in_diameters(self, mean_diameter: float) -> dict:
         """The container's lengths in units of ``mean_diameter`` (the achieved D/<d>, L/<d>, ...)."""
