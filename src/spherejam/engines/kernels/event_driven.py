@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -785,6 +785,9 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
                    nbr, nnb, lx, ly, lz, hx, hy, hz):
     """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
     collision of particle i (at xi, moving at vi, at time t) that beats ``best`` and is available."""
+    if nnb[i] > LONG_LIST:
+        return _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st,
+                             ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz)
     for kk in range(nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -813,6 +816,95 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
                 best = tc
                 best_type = COLLISION
                 best_j = j
+    return best, best_type, best_j
+
+
+#: Lists longer than this are predicted in two passes (:func:`_predict_long`): the first shell of small spheres
+#: around a large one (docs/algorithms.md §7.7).
+LONG_LIST = 64
+#: Neighbours per block of :func:`_predict_long` (its collision times live on the stack).
+_BLOCK = 256
+
+
+@intrinsic
+def _stack_block(typingctx):
+    """A pointer to :data:`_BLOCK` float64 on the stack of the calling function (an alloca at its entry: no heap
+    allocation per call, and memory the compiler knows no array argument aliases, so the loop that fills it is
+    vectorised)."""
+    def codegen(context, builder, signature, args):
+        return cgutils.alloca_once(builder, ir.DoubleType(), size=_BLOCK)
+
+    return types.CPointer(types.float64)(), codegen
+
+
+@njit(cache=True, inline="always")
+def _branch_free_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
+    """:func:`collision_delay`, bit for bit, written with selects only: every branch's value is computed and the one
+    :func:`collision_delay` would return is kept (a loop of these is vectorised; the discarded values may be inf or
+    nan, never the kept one)."""
+    s2 = sig * sig
+    ru = rx * ux + ry * uy + rz * uz
+    b = ru - s2 * rho * gamma
+    a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+    r2 = rx * rx + ry * ry + rz * rz
+    c = r2 - s2 * rho * rho
+    touch = 0.0 if ru < np.sqrt(r2) * sig * gamma else _INF
+    disc = b * b - a * c
+    graze = (disc < 0.0) & (disc > -1e-14 * b * b)
+    disc = 0.0 if graze else disc
+    sq = np.sqrt(disc)  # nan where disc < 0: that lane's root is not kept
+    num = c if b < 0.0 else b + sq
+    den = sq - b if b < 0.0 else (-a if a < 0.0 else 1.0)
+    root = _INF if disc < 0.0 else num / den
+    tau = touch if c <= 0.0 else root
+    return _INF if (b >= 0.0) & (a >= 0.0) else tau
+
+
+@njit(cache=True, error_model="numpy")
+def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
+                  nbr, nnb, lx, ly, lz, hx, hy, hz):
+    """:func:`_predict_pairs` for a long list, with the same result bit for bit, in two passes per block of
+    :data:`_BLOCK` neighbours: the first computes every neighbour's collision delay without a branch (vectorised),
+    the second walks the block in list order with the running best and, for the few delays that would beat it, applies
+    :func:`_predict_pairs`' exclusion, pruning test and availability rule on the same values. A delay that does not
+    beat the running best is rejected by both loops alike, so the accepted events are the same."""
+    tau = carray(_stack_block(), _BLOCK)
+    m = nnb[i]
+    for k0 in range(0, m, _BLOCK):
+        k1 = min(m, k0 + _BLOCK)
+        for kk in range(k0, k1):
+            j = nbr[i, kk]
+            dtj = t - st[j, 6]
+            rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
+            ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
+            rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
+            tau[kk - k0] = _branch_free_delay(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi,
+                                              0.5 * (di + st[j, 7]), rho, gamma)
+        for kk in range(k0, k1):
+            tc = t + tau[kk - k0]
+            if tc < best:  # rare: the scalar loop's tests, on the same values
+                j = nbr[i, kk]
+                if j == exclude:
+                    continue
+                dtj = t - st[j, 6]
+                ux = st[j, 3] - vxi
+                uy = st[j, 4] - vyi
+                uz = st[j, 5] - vzi
+                rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
+                ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
+                rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
+                sig = 0.5 * (di + st[j, 7])
+                s2 = sig * sig
+                b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
+                a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+                c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
+                lim = min(best, ev_time[j]) - t
+                if (a >= 0.0) & ((b >= 0.0) | ((c > 0.0) & (c > -2.0 * b * lim))):
+                    continue
+                if tc <= ev_time[j]:
+                    best = tc
+                    best_type = COLLISION
+                    best_j = j
     return best, best_type, best_j
 
 
