@@ -223,17 +223,18 @@ def before_after(baseline: str, sizes, sigmas, repeats: int) -> None:
 WIDE_TABLE = ("mono", "sigma0.3", "bi3", "bi5", "bi10", "lognormal0.5", "powerlaw-3r20")
 
 
-def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE) -> None:
-    """Issue 47's table: each distribution with the baseline's package (``before``, if given; only the
-    distributions ``before``) and this one (``after``), alternately, each run in a fresh process; every rate against
-    the monodisperse rate of the same tree and invocation. ``out``: each run as a JSON line
+def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE, rows=WIDE_TABLE) -> None:
+    """Issue 47's table (the distributions ``rows``, monodisperse first): each with the baseline's package
+    (``before``, if given; only the distributions ``before``) and this one (``after``), alternately, each run in a
+    fresh process; every rate against the monodisperse rate of the same tree and invocation. ``out``: each run as a
+    JSON line
     (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
     sources = [("after", str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src"))]
     if baseline:
         sources.insert(0, ("before", baseline))
     mono: dict[str, dict] = {}
     print(f"load average at start: {os.getloadavg()}", flush=True)
-    for dist in WIDE_TABLE:
+    for dist in dict.fromkeys(("mono",) + tuple(rows)):
         for label, src in sources:
             if label == "before" and dist not in before and dist != "mono":
                 continue
@@ -647,7 +648,7 @@ def main() -> None:
         elif a.mode == "before-after":
             before_after(a.baseline_src, a.sizes or [1000, 10000], a.sigmas, a.repeats)
         elif a.mode == "wide":
-            wide(a.baseline_src, a.n, a.out, a.dists or WIDE_TABLE)
+            wide(a.baseline_src, a.n, a.out, a.dists or WIDE_TABLE, a.dists or WIDE_TABLE)
         else:
             scale(a.sizes or [100000, 1000000], a.max_wall or 900.0)
         return
