@@ -227,8 +227,7 @@ def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE
     """Issue 47's table (the distributions ``rows``, monodisperse first): each with the baseline's package
     (``before``, if given; only the distributions ``before``) and this one (``after``), alternately, each run in a
     fresh process; every rate against the monodisperse rate of the same tree and invocation. ``out``: each run as a
-    JSON line
-    (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
+    JSON line (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
     sources = [("after", str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src"))]
     if baseline:
         sources.insert(0, ("before", baseline))
