@@ -42,7 +42,9 @@ Frame and walls
 Speed (the hot loop is a prediction over ~10 neighbours)
     Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
     as much as a whole pair test); neighbours' rows are prefetched before use, so cache misses overlap; the caller
-    keeps ``st`` and ``nbr`` on 64-byte boundaries and renumbers particles in cell order at every full rebuild.
+    keeps ``st`` and ``nbr`` on 64-byte boundaries and renumbers particles in cell order at every full rebuild. A
+    list longer than :data:`LONG_LIST` (a large sphere of a wide mixture) is predicted in two passes
+    (:func:`_predict_long`, docs/algorithms.md §7.7), with the same events.
 """
 
 from __future__ import annotations
