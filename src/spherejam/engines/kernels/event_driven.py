@@ -824,15 +824,15 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
 #: Lists longer than this are predicted in two passes (:func:`_predict_long`): the first shell of small spheres
 #: around a large one (docs/algorithms.md §7.7).
 LONG_LIST = 64
-#: Neighbours per block of :func:`_predict_long` (its collision times live on the stack).
+#: Neighbours per block of :func:`_predict_long` (its work rows live on the stack).
 _BLOCK = 256
 
 
 @intrinsic
 def _stack_block(typingctx):
     """A pointer to 8 x :data:`_BLOCK` float64 on the stack of the calling function (an alloca at its entry: no heap
-    allocation per call, and memory the compiler knows no array argument aliases, so the loop that fills it is
-    vectorised)."""
+    allocation per call, and memory the compiler knows no array argument aliases, so the loop over it is
+    vectorised without run-time overlap checks)."""
     def codegen(context, builder, signature, args):
         return cgutils.alloca_once(builder, ir.DoubleType(), size=8 * _BLOCK)
 
@@ -857,7 +857,7 @@ def delay_bound(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
     return _INF if (b >= 0.0) & (a >= 0.0) else kept
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")  # numpy: delay_bound divides by b = 0 in lanes it does not keep
 def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
                   nbr, nnb, lx, ly, lz, hx, hy, hz):
     """:func:`_predict_pairs` for a long list, with the same result bit for bit, in two passes per block of
