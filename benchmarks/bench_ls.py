@@ -16,7 +16,7 @@ Also the cold-start time of a new process (import + cached numba code + a tiny r
 Issue 35 (any box, any size ratio), each case in a fresh process (so its peak memory is its own):
 
     python benchmarks/bench_ls.py before-after --baseline-src /work/main/src   # N = 1e3, 1e4, sigma 0, 0.3
-    python benchmarks/bench_ls.py wide [--baseline-src ...]   # N = 1e4: mono, 1:1.4, 1:3, 1:10, log-normal 0.5
+    python benchmarks/bench_ls.py wide [--baseline-src ...] [--out W.jsonl]   # N = 1e4: issue 47's table
     python benchmarks/bench_ls.py scale --sizes 100000 1000000 --max-wall 900   # sigma 0.3, gamma = 1
 
 Issue 47 (where the time goes at wide size ratios; docs/algorithms.md §7.5), the counts of each distribution:
@@ -219,17 +219,34 @@ def before_after(baseline: str, sizes, sigmas, repeats: int) -> None:
                   flush=True)
 
 
-def wide(baseline: str | None, n: int) -> None:
+#: The rows of issue 47's table (``wide``): monodisperse first (the baseline of every ratio).
+WIDE_TABLE = ("mono", "sigma0.3", "bi3", "bi5", "bi10", "lognormal0.5", "powerlaw-3r20")
+
+
+def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE, rows=WIDE_TABLE) -> None:
+    """Issue 47's table (the distributions ``rows``, monodisperse first): each with the baseline's package
+    (``before``, if given; only the distributions ``before``) and this one (``after``), alternately, each run in a
+    fresh process; every rate against the monodisperse rate of the same tree and invocation. ``out``: each run as a
+    JSON line (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
     sources = [("after", str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src"))]
     if baseline:
         sources.insert(0, ("before", baseline))
-    for label, src in sources:
-        mono = None
-        for dist in WIDE:
+    mono: dict[str, dict] = {}
+    print(f"load average at start: {os.getloadavg()}", flush=True)
+    for dist in dict.fromkeys(("mono",) + tuple(rows)):
+        for label, src in sources:
+            if label == "before" and dist not in before and dist != "mono":
+                continue
             b = run_case(src, n, dist, RATE)
-            mono = mono or b["per_s"]
-            print(_line(label, b) + f"  d_max/d_min={b['d_ratio']:.1f}  rate/mono={b['per_s'] / mono:.2f}",
+            mono.setdefault(label, b)
+            m = mono[label]
+            print(_line(label, b) + f"  d_max/d_min={b['d_ratio']:.1f}  rate/mono={b['per_s'] / m['per_s']:.3f}",
                   flush=True)
+            if out:
+                with open(out, "a") as fh:
+                    fh.write(json.dumps({"tree": label, "src": src, "timed": b, "mono_per_s": m["per_s"],
+                                         "mono_collisions": m["collisions"]}) + "\n")
+    print(f"load average at end: {os.getloadavg()}", flush=True)
 
 
 # --- issue 47: where the time goes at wide ratios (counts) ----------------------------------------------------
@@ -630,7 +647,7 @@ def main() -> None:
         elif a.mode == "before-after":
             before_after(a.baseline_src, a.sizes or [1000, 10000], a.sigmas, a.repeats)
         elif a.mode == "wide":
-            wide(a.baseline_src, a.n)
+            wide(a.baseline_src, a.n, a.out, a.dists or WIDE_TABLE, a.dists or WIDE_TABLE)
         else:
             scale(a.sizes or [100000, 1000000], a.max_wall or 900.0)
         return

@@ -42,7 +42,9 @@ Frame and walls
 Speed (the hot loop is a prediction over ~10 neighbours)
     Unpredictable tests are written as selects or non-short-circuit ``&``/``|`` (a mispredicted jump costs about
     as much as a whole pair test); neighbours' rows are prefetched before use, so cache misses overlap; the caller
-    keeps ``st`` and ``nbr`` on 64-byte boundaries and renumbers particles in cell order at every full rebuild.
+    keeps ``st`` and ``nbr`` on 64-byte boundaries and renumbers particles in cell order at every full rebuild. A
+    list longer than :data:`LONG_LIST` (a large sphere of a wide mixture) is predicted in two passes
+    (:func:`_predict_long`, docs/algorithms.md §7.7), with the same events.
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
@@ -821,6 +823,9 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
                    nbr, nnb, lx, ly, lz, hx, hy, hz):
     """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
     collision of particle i (at xi, moving at vi, at time t) that beats ``best`` and is available."""
+    if nnb[i] > LONG_LIST:
+        return _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st,
+                             ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz)
     for kk in range(nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -849,6 +854,101 @@ def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, bes
                 best = tc
                 best_type = COLLISION
                 best_j = j
+    return best, best_type, best_j
+
+
+#: Lists longer than this are predicted in two passes (:func:`_predict_long`): the first shell of small spheres
+#: around a large one (docs/algorithms.md §7.7).
+LONG_LIST = 64
+#: Neighbours per block of :func:`_predict_long` (its work rows live on the stack).
+_BLOCK = 256
+
+
+@intrinsic
+def _stack_block(typingctx):
+    """A pointer to 8 x :data:`_BLOCK` float64 on the stack of the calling function (an alloca at its entry: no heap
+    allocation per call, and memory the compiler knows no array argument aliases, so the loop over it is
+    vectorised without run-time overlap checks)."""
+    def codegen(context, builder, signature, args):
+        return cgutils.alloca_once(builder, ir.DoubleType(), size=8 * _BLOCK)
+
+    return types.CPointer(types.float64)(), codegen
+
+
+@njit(cache=True, inline="always")
+def delay_bound(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
+    """A lower bound of :func:`collision_delay` (same arguments), in floating point as computed, without a branch,
+    a square root or a test of the best time so far (a loop of these is vectorised).
+
+    Receding pairs (b >= 0, a >= 0): inf, as collision_delay. Approaching with a >= 0 and c > 0: c / (-2 b), which
+    the root c / (sqrt(disc) - b) is not below: disc = b^2 - a c <= fl(b^2), and sqrt(fl(b^2)) = |b| exactly for
+    normal b^2 (hence |b| > 1e-150), so the computed denominator is at most -2 b and rounding is monotone. Any other
+    pair (touching, or growing faster than it approaches): 0."""
+    s2 = sig * sig
+    b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
+    a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+    c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
+    bound = c / (-2.0 * b)  # inf or nan where b = 0: not kept there
+    kept = bound if (a >= 0.0) & (c > 0.0) & (b < -1e-150) else 0.0
+    return _INF if (b >= 0.0) & (a >= 0.0) else kept
+
+
+@njit(cache=True, error_model="numpy")  # numpy: delay_bound divides by b = 0 in lanes it does not keep
+def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
+                  nbr, nnb, lx, ly, lz, hx, hy, hz):
+    """:func:`_predict_pairs` for a long list, with the same result bit for bit, in two passes per block of
+    :data:`_BLOCK` neighbours. The first gathers the neighbours' positions and velocities into contiguous rows on the
+    stack and computes a lower bound of every collision delay (:func:`delay_bound`: no branch, vectorised); the second
+    walks the block in list order with the running best and runs :func:`_predict_pairs`' own test only on the few
+    neighbours whose bound beats it. A neighbour whose bound does not beat the running best cannot be accepted by
+    the scalar loop (its time is not below the bound, and that loop accepts only times below the running best), so
+    both take the same events."""
+    work = carray(_stack_block(), (8, _BLOCK))
+    low = work[7]
+    m = nnb[i]
+    for k0 in range(0, m, _BLOCK):
+        k1 = min(m, k0 + _BLOCK)
+        for kk in range(k0, k1):  # gather: the rows are scattered, the arithmetic below runs on contiguous ones
+            j = nbr[i, kk]
+            dtj = t - st[j, 6]
+            q = kk - k0
+            work[0, q] = st[j, 0] + st[j, 3] * dtj - xi
+            work[1, q] = st[j, 1] + st[j, 4] * dtj - yi
+            work[2, q] = st[j, 2] + st[j, 5] * dtj - zi
+            work[3, q] = st[j, 3] - vxi
+            work[4, q] = st[j, 4] - vyi
+            work[5, q] = st[j, 5] - vzi
+            work[6, q] = 0.5 * (di + st[j, 7])
+        for q in range(k1 - k0):
+            low[q] = delay_bound(fold(work[0, q], lx, hx), fold(work[1, q], ly, hy), fold(work[2, q], lz, hz),
+                                 work[3, q], work[4, q], work[5, q], work[6, q], rho, gamma)
+        for kk in range(k0, k1):
+            if t + low[kk - k0] < best:  # rare: the scalar loop's body, as it is in _predict_pairs
+                j = nbr[i, kk]
+                if j == exclude:
+                    continue
+                dtj = t - st[j, 6]
+                ux = st[j, 3] - vxi
+                uy = st[j, 4] - vyi
+                uz = st[j, 5] - vzi
+                rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
+                ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
+                rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
+                sig = 0.5 * (di + st[j, 7])
+                s2 = sig * sig
+                b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
+                a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+                c = rx * rx + ry * ry + rz * rz - s2 * rho * rho
+                lim = min(best, ev_time[j]) - t
+                if (a >= 0.0) & ((b >= 0.0) | ((c > 0.0) & (c > -2.0 * b * lim))):
+                    continue
+                tau = collision_delay(rx, ry, rz, ux, uy, uz, sig, rho, gamma)
+                if tau < _INF:
+                    tc = t + tau
+                    if tc < best and tc <= ev_time[j]:
+                        best = tc
+                        best_type = COLLISION
+                        best_j = j
     return best, best_type, best_j
 
 
