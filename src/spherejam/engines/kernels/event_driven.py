@@ -924,7 +924,7 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
                                  work[3, q], work[4, q], work[5, q], work[6, q], rho, gamma)
         for kk in range(k0, k1):
             # rare: the scalar loop's body, as it is in _predict_pairs. Written twice on purpose: one inlined helper
-            # for both, taking j's row as numbers, cost +3 % instructions in a monodisperse LS run (docs §7.7)
+            # for both, taking j's row as numbers, cost +2.7 % instructions in a monodisperse LS run (docs §7.7)
             if t + low[kk - k0] < best:
                 j = nbr[i, kk]
                 if j == exclude:
