@@ -839,12 +839,8 @@ def _step(x, dia, sol: LPSolution, lp: _LP, cfg: _Settings, iteration: int):
     Returns ``(positions, diameters, sqrt(Gamma) as applied, overlap correction)``."""
     sqrt_inflation = math.sqrt(max(sol.inflation, lp.inflation_min))
     dia = dia * sqrt_inflation
-    if cfg.walls is None:
-        x = np.mod(x + sol.s, cfg.box)
-        h_min = _closest_h(x, dia, cfg.box)
-    else:  # the wall nodes' rows of s are 0
-        x = cfg.walls.container.wrap(x + sol.s[:cfg.n])
-        h_min = min(_closest_h(x, dia, cfg.box), cfg.walls.distance_ratio(x, dia))
+    x = _moved(x, sol.s[:cfg.n], cfg)  # the wall nodes' rows of s are 0
+    h_min = _closest(x, dia, cfg)
     correction = 0.0
     if h_min < 1.0:
         correction = 1.0 - h_min
@@ -911,17 +907,10 @@ def _escape(run: _Run, cfg: _Settings) -> bool:
     v = escape_motion(lp.rij, lp.sigma2, lp.pi, lp.pj, sol.duals, cfg.nodes, cfg.dim, cfg.zero_force, pins, step)
     if v is None:
         return False
-
-    def closest(x):
-        if cfg.walls is None:
-            return _closest_h(x, run.dia, cfg.box)
-        return min(_closest_h(x, run.dia, cfg.box), cfg.walls.distance_ratio(x, run.dia))
-
-    floor = min(1.0, closest(run.x))
+    floor = min(1.0, _closest(run.x, run.dia, cfg))
     for _ in range(30):
-        x = run.x + step * v[:cfg.n]
-        x = np.mod(x, cfg.box) if cfg.walls is None else cfg.walls.container.wrap(x)
-        if closest(x) >= floor:
+        x = _moved(run.x, step * v[:cfg.n], cfg)
+        if _closest(x, run.dia, cfg) >= floor:
             run.x = x
             run.loop.predicted = None  # the last network is not the next LP's
             run.loop.escapes += 1
@@ -1097,6 +1086,17 @@ def _pins(loop, cfg: _Settings):
         return loop.pinned
     walls = np.arange(cfg.n * cfg.dim, cfg.nodes * cfg.dim, dtype=np.int64)
     return Pins(np.concatenate([loop.gauge, walls]), cfg.n, cfg.dim)
+
+
+def _moved(x, s, cfg: _Settings):
+    """Positions x displaced by s (N, d), wrapped back into the periodic box or along the container's periodic axes."""
+    return np.mod(x + s, cfg.box) if cfg.walls is None else cfg.walls.container.wrap(x + s)
+
+
+def _closest(x, dia, cfg: _Settings) -> float:
+    """The closest approach of the packing, pairs and walls alike, as a fraction of contact (< 1: an overlap)."""
+    h = _closest_h(x, dia, cfg.box)
+    return h if cfg.walls is None else min(h, cfg.walls.distance_ratio(x, dia))
 
 
 def _closest_h(x, dia, box) -> float:
