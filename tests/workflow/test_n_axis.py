@@ -214,6 +214,9 @@ def test_a_two_n_tiny_run_end_to_end(tmp_path):
     cfg["fb"]["rates"] = [0.01, 0.005, 0.003]
     cfg["validation_grid"] = {"enabled": False}
     cfg["bands"]["min_packings"] = 3
+    # one certification per cell (per N): the calippso rule still runs at both N, and the merge below compares a
+    # dataset whose uncertified packings carry no CALiPPSO values (10 of the 73 jobs fewer; docs/layout.md, Tests)
+    cfg["calippso"]["per_cell"] = 1
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
     r = subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--configfile", str(tmp_path / "c.yaml")],
                        cwd=ROOT, capture_output=True, text=True, timeout=1500)
@@ -225,6 +228,9 @@ def test_a_two_n_tiny_run_end_to_end(tmp_path):
         assert str(key).startswith(f"n{n}/")
         assert read_packing(results / "packings" / str(key) / "jammed.h5").n == n
     assert len(set(ds.seed.values.tolist())) == 12
+    sampled = ds.calippso_sampled.values == 1  # one packing per N, each certified, the others without a value
+    assert sorted(ds.n.values[sampled].tolist()) == [40, 80] and (ds.calippso_converged.values[sampled] == 1).all()
+    assert np.isnan(ds.calippso_converged.values[~sampled]).all()
     t4 = pd.read_csv(results / "tables" / "table4.csv")
     assert [str(x) for x in t4.n] == ["40.0", "80.0", "10000.0", "inf"]
     assert np.isfinite(t4.phi_RCP).all()
