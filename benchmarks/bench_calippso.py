@@ -11,10 +11,11 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` (``auto``: run_calippso's
-default; ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md
-§5.7, so that ``--paths auto auto+cg`` times today's path and constraint generation side by side; ``+interior``:
-intermediate steps from the interior point, docs/calippso.md §10; ``/reference``: the reference's bounds schedule,
+A path is ``solver[:threads][+crossover][-warm][+cg][+interior|+vertex][/schedule][@max_lps]`` (``auto``:
+run_calippso's default; ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation,
+docs/calippso.md §5.7, so that ``--paths auto auto+cg`` times today's path and constraint generation side by side;
+``+interior``: intermediate steps from the interior point, docs/calippso.md §10, and ``+vertex`` every LP a vertex,
+whatever the default at the input's N, §10.11; ``/reference``: the reference's bounds schedule,
 docs/calippso.md §10, so that ``--paths auto auto/reference --table`` is the trajectory A/B, each path's certificate
 checked on its own by the issue's validity criteria and its LPs and CPU printed as ratios to the first path's):
 ``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover), ``hipo`` the new path (HiPO interior point,
@@ -22,7 +23,7 @@ its vertex certified by the active-set solve, crossover only as the fallback; ``
 on). The first path listed is the reference: every other path must give the same contact network, the same rattlers
 and force balance <= 1e-10 (printed as "agree"; a path that changes the trajectory may end on another valid state).
 Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and
-in total. ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times
+in total; ``--lp-log DIR`` keeps each path's per-LP CSV. ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times
 are then compared with the same LPs of the other paths, not its total).
 
 ``--baseline REF`` runs every path twice, side by side in one run: with today's package (this checkout) and with

@@ -212,14 +212,16 @@ def test_interior_steps_end_on_a_vertex_and_certify(ls_jammed_256):
 
 
 def test_the_default_takes_interior_steps_from_its_n_on_and_certifies(ls_jammed_256, monkeypatch):
-    """The one rule by N (core.calippso_path): with the threshold moved to this packing's N (256, so that the test
+    """The one rule by N (core.calippso_path): with the threshold set at this packing's N (256, so that the test
     takes seconds), the default run takes interior steps and ends on a valid certificate; just above it, every LP is a
     vertex; an explicit choice wins either way; the parameters record the path that ran (docs §10.11)."""
     from spherejam.calippso.solution import METHOD_CODES
     from spherejam.core import calippso_path
 
-    assert calippso_path.interior_steps_at(calippso_path.INTERIOR_STEPS_MIN_N)
-    assert not calippso_path.interior_steps_at(calippso_path.INTERIOR_STEPS_MIN_N - 1)
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", None)  # unset: never by default, only when asked
+    assert not calippso_path.interior_steps_at(10**6) and calippso_path.interior_steps_at(2, True)
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", 4096)
+    assert calippso_path.interior_steps_at(4096) and not calippso_path.interior_steps_at(4095)
     assert not calippso_path.interior_steps_at(10**6, False) and calippso_path.interior_steps_at(2, True)
     interior = METHOD_CODES["interior"]
     monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", ls_jammed_256.n)

@@ -77,27 +77,28 @@ def test_costs_grow_with_n_and_with_slower_rates():
 def test_calippso_model_matches_the_measured_certification_times(monkeypatch):
     """Mean LPs per certification in the reproduction ladder (3.9, 6.8 and 14.7 at N = 250, 500, 1000); CPU s per LP
     on the vertex path through 30 whole N = 1000 certifications (0.52) and the mean at N = 10^4 (313, 52 LPs of three
-    inputs); with interior steps through the whole N = 4096 run (9.9 s) and the N = 16384 run's interior steps
-    (118 s) (benchmarks/calippso_cost_fit.py, docs/cluster.md §3). Each N is priced on the path that runs there."""
-    from spherejam.core.calippso_path import INTERIOR_STEPS_MIN_N
+    inputs); with interior steps through 30 whole N = 1000 certifications (0.795 s: IPX below N = 4096) and the N = 16384 run's interior steps (118 s)
+    (benchmarks/calippso_cost_fit.py, docs/cluster.md §3). Each N is priced on the path that runs there."""
+    from spherejam.core import calippso_path
 
     for n, lps in ((250, 3.9), (500, 6.8), (1000, 14.7)):
         assert cr.calippso_lps(n) == pytest.approx(lps, rel=0.1)
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", None)  # today's default: every LP a vertex
     assert cr.cpu_seconds("calippso", 1000) / cr.calippso_lps(1000) == pytest.approx(0.52, rel=0.05)
-    assert cr.calippso_lp_seconds(10000, interior_steps=False) == pytest.approx(313.0, rel=0.05)
-    assert cr.calippso_lp_seconds(16384) == pytest.approx(118.0, rel=0.05)
-    # the path that runs: vertices below the rule's N, interior steps from it on, either when the config forces it
-    below, at = INTERIOR_STEPS_MIN_N - 1, INTERIOR_STEPS_MIN_N
-    assert cr.calippso_lp_seconds(below) == cr.calippso_lp_seconds(below, interior_steps=False)
-    assert cr.calippso_lp_seconds(at) == cr.calippso_lp_seconds(at, interior_steps=True) == pytest.approx(
-        9.9 * (at / 4096) ** cr.CALIPPSO_INTERIOR_EXPONENT, rel=0.05)
-    assert cr.calippso_lp_seconds(10000) < cr.calippso_lp_seconds(10000, interior_steps=False) / 3
-    assert cr.cpu_seconds("calippso", 10000, interior_steps=False) > 3 * cr.cpu_seconds("calippso", 10000)
+    assert cr.calippso_lp_seconds(10000) == pytest.approx(313.0, rel=0.05)
+    assert cr.calippso_lp_seconds(1000, interior_steps=True) == pytest.approx(0.795, rel=0.05)
+    assert cr.calippso_lp_seconds(16384, interior_steps=True) == pytest.approx(118.0, rel=0.05)
     # a vertex-path certification at N = 10^4 (~11 h expected, 3x that with the margin) asks for the ceiling and
     # continues from its checkpoint over several submissions; with interior steps it fits in one
     monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
-    assert cr.runtime_minutes("calippso", 10000, interior_steps=False) == cr.MAX_RUNTIME_MINUTES
-    assert cr.runtime_minutes("calippso", 10000) < cr.MAX_RUNTIME_MINUTES
+    assert cr.runtime_minutes("calippso", 10000) == cr.MAX_RUNTIME_MINUTES
+    assert cr.runtime_minutes("calippso", 10000, interior_steps=True) < cr.MAX_RUNTIME_MINUTES
+    assert cr.cpu_seconds("calippso", 10000) > 3 * cr.cpu_seconds("calippso", 10000, interior_steps=True)
+    # the path that runs: with the rule set, vertices below its N, interior steps from it on; a forced path wins
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", 4096)
+    assert cr.calippso_lp_seconds(4095) == cr.calippso_lp_seconds(4095, interior_steps=False)
+    assert cr.calippso_lp_seconds(4096) == cr.calippso_lp_seconds(4096, interior_steps=True)
+    assert cr.calippso_lp_seconds(10000) < cr.calippso_lp_seconds(10000, interior_steps=False) / 3
 
 
 def test_floor_ceiling_and_attempts(monkeypatch):

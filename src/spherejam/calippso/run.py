@@ -351,9 +351,9 @@ def run_calippso(
         Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
         interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
         and the overlap guard of docs §1.8 applies); the LPs below it, the convergence test and the force LP take
-        vertices as before (docs §10). Off: every LP is a vertex. None (the default): on from
-        :data:`~spherejam.core.calippso_path.INTERIOR_STEPS_MIN_N` spheres on, off below (docs §10.11); the
-        parameters record what ran.
+        vertices as before (docs §10). Off: every LP is a vertex. None (the default): the one rule by N,
+        :func:`~spherejam.core.calippso_path.interior_steps_at` (on from its ``INTERIOR_STEPS_MIN_N`` spheres;
+        off at every N while that is None, docs §10.11); the parameters record what ran.
     lp_log : path or None
         Write the per-LP record there as CSV (:mod:`.lp_log`, docs §10), one row appended and flushed per LP;
         a resumed run rewrites it from its checkpoint's history first. Not part of the checkpoint's fingerprint.

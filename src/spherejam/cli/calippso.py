@@ -46,8 +46,9 @@ def register(sub) -> None:
                         "30 sqrt(sqrt(Gamma)-1) R and the cutoff shrunk with it); docs/calippso.md 10")
     p.add_argument("--interior-steps", action=argparse.BooleanOptionalAction, default=None,
                    help="step from the interior point (no vertex, no crossover) while sqrt(Gamma)-1 > 1e-9; the "
-                        f"final LPs and the force LP take vertices (default: from N = {INTERIOR_STEPS_MIN_N} on; "
-                        "--no-interior-steps: every LP a vertex; docs/calippso.md 10.11)")
+                        "final LPs and the force LP take vertices (default: "
+                        + (f"from N = {INTERIOR_STEPS_MIN_N} on" if INTERIOR_STEPS_MIN_N else "off")
+                        + "; --no-interior-steps: every LP a vertex; docs/calippso.md 10.11)")
     p.add_argument("--lp-log", type=output_file, default=None,
                    help="write one CSV row per LP here (sqrt(Gamma)-1, max |s|, bounds, contacts gained and lost, "
                         "solver path, CPU and wall s), flushed after each LP; a resumed run rewrites it from its "

@@ -71,13 +71,14 @@ FB_SECONDS = 3.5e-7
 #: 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7). docs/cluster.md §3.
 CALIPPSO_LPS = 14.2
 CALIPPSO_LPS_EXPONENT = 0.96
-#: CPU seconds per LP on the vertex path (every LP a vertex; the default below
-#: core.calippso_path.INTERIOR_STEPS_MIN_N): at N = 1000 the mean of 30 archived MLS outputs certified whole (577 LPs,
+#: CPU seconds per LP on the vertex path (every LP a vertex; the default, below core.calippso_path's
+#: INTERIOR_STEPS_MIN_N when it is set): at N = 1000 the mean of 30 archived MLS outputs certified whole (577 LPs,
 #: start-up and force LPs included), growing as N^CALIPPSO_EXPONENT through the mean per LP at N = 10^4 (313 s: 52 LPs
 #: of three inputs). Refitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
 CALIPPSO_LP_SECONDS = 0.52
 CALIPPSO_EXPONENT = 2.78
-#: CPU seconds per LP with interior steps (the default from INTERIOR_STEPS_MIN_N on), fitted by
+#: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
+#: INTERIOR_STEPS_MIN_N on when it is set), fitted by
 #: benchmarks/calippso_cost_fit.py (docs/cluster.md §3).
 CALIPPSO_INTERIOR_LP_SECONDS = 0.795
 CALIPPSO_INTERIOR_EXPONENT = 1.79
