@@ -23,8 +23,9 @@ its vertex certified by the active-set solve, crossover only as the fallback; ``
 on). The first path listed is the reference: every other path must give the same contact network, the same rattlers
 and force balance <= 1e-10 (printed as "agree"; a path that changes the trajectory may end on another valid state).
 Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and
-in total; ``--lp-log DIR`` keeps each path's per-LP CSV. ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times
-are then compared with the same LPs of the other paths, not its total).
+in total; ``--lp-log DIR`` keeps each path's per-LP CSV. ``@max_lps`` stops a path after that many LPs, for an old
+path too slow to run to the end (its per-LP times are then compared with the same LPs of the other paths, not its
+total).
 
 ``--baseline REF`` runs every path twice, side by side in one run: with today's package (this checkout) and with
 the package as it was at git revision REF (exported by ``git archive`` into a temporary folder and run in a child

@@ -9,8 +9,7 @@ power law through two anchors, and every other measured row is printed against i
 rows not in the fit check it. Two kinds of row:
 
 * a whole run: its CPU seconds (start-up of the run, every LP and the force LP) over its LPs, from the per-input
-  records of ``calippso_paths_stats.py`` (``paths/<set>/<input>/<path>.json``, pooled: total CPU over total LPs) or
-  from a ``bench_calippso.py --table`` row in a log;
+  records of ``calippso_paths_stats.py`` (``paths/<set>/<input>/<path>.json``, pooled: total CPU over total LPs);
 * LPs of a run that has not ended: the mean ``iteration_cpu_s`` of its LPs of one method from its per-LP CSV
   (``calippso/lp_log.py``); without the final vertex LPs and the force LP this is a lower bound of a whole run's
   mean.
@@ -25,7 +24,6 @@ import csv
 import glob
 import json
 import math
-import re
 import sys
 from pathlib import Path
 
@@ -40,20 +38,10 @@ def pooled(group: str, path: str) -> tuple[int, float, int, int]:
     return (recs[0]["n"] if recs else 0), (sum(r["cpu_s"] for r in recs) / lps if lps else math.nan), len(recs), lps
 
 
-def bench_row(log: str, code: str) -> tuple[int, float, int]:
-    """(N, CPU s per LP, LPs) of the ``--table`` row of path ``code`` in a bench_calippso.py log."""
-    for line in (RECORDS / log).read_text().splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) > 5 and cells[2] == code and re.fullmatch(r"\d+ \+ 1", cells[3]):
-            lps = int(cells[3].split()[0])
-            return int(cells[1]), float(cells[4]) / lps, lps
-    raise ValueError(f"{log}: no table row for {code}")
-
-
-def lp_rows(csv_name: str, method: str, n: int) -> tuple[int, float, int]:
-    """(N, mean CPU s of its LPs of ``method``, LPs) from a per-LP CSV."""
+def lp_rows(csv_name: str, method: str | None, n: int) -> tuple[int, float, int]:
+    """(N, mean CPU s of its LPs of ``method`` (None: every LP), LPs) from a per-LP CSV."""
     with open(RECORDS / csv_name) as fh:
-        cpu = [float(r["iteration_cpu_s"]) for r in csv.DictReader(fh) if r["method"] == method]
+        cpu = [float(r["iteration_cpu_s"]) for r in csv.DictReader(fh) if method in (None, r["method"])]
     return n, (sum(cpu) / len(cpu) if cpu else math.nan), len(cpu)
 
 
@@ -74,8 +62,8 @@ def main() -> int:
         "vertex": [
             ("30 archived N = 1000 MLS outputs, whole runs (paths/mls1000, auto)", lambda: pooled("mls1000", "auto")),
             ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto)", lambda: pooled("ls1024", "auto")),
-            ("ls512_p1e12 tiled 2^3 (N = 4096), whole run (n4096.log, auto+vertex)",
-             lambda: bench_row("n4096.log", "auto+vertex")),
+            ("ls4096_p1e12 (N = 4096), every LP of the vertex path so far (run not ended)",
+             lambda: lp_rows("ls4096_p1e12.vertex.lps.csv", None, 4096)),
             ("three N = 1e4 inputs, 52 LPs (docs/calippso.md §9; runs not ended)", lambda: VERTEX_1E4),
         ],
         "interior": [
@@ -83,8 +71,8 @@ def main() -> int:
              lambda: pooled("mls1000", "auto+interior")),
             ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto+interior)",
              lambda: pooled("ls1024", "auto+interior")),
-            ("ls512_p1e12 tiled 2^3 (N = 4096), whole run (n4096.log, auto+interior)",
-             lambda: bench_row("n4096.log", "auto+interior")),
+            ("ls4096_p1e12 (N = 4096), its interior steps so far (run not ended)",
+             lambda: lp_rows("ls4096_p1e12.interior.lps.csv", "interior", 4096)),
             ("ls10000_p1e12_s0 (N = 1e4), its interior steps so far (run not ended)",
              lambda: lp_rows("ls10000_p1e12_s0.lps.csv", "interior", 10_000)),
             ("ls16384_p1e5 (N = 16384), its interior steps so far (run not ended)",
