@@ -11,10 +11,11 @@
     python benchmarks/bench_calippso.py --start mls1250.h5 --tile 2 --paths hipo ipx+crossover@1
                                         # N = 10^4 from an N = 1250 MLS output; the old path for its first LP only
 
-A path is ``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` (``auto``: run_calippso's
-default; ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation, docs/calippso.md
-§5.7, so that ``--paths auto auto+cg`` times today's path and constraint generation side by side; ``+interior``:
-intermediate steps from the interior point, docs/calippso.md §10; ``/reference``: the reference's bounds schedule,
+A path is ``solver[:threads][+crossover][-warm][+cg][+interior|+vertex][/schedule][@max_lps]`` (``auto``:
+run_calippso's default; ``-warm``: no warm starts, the path of every N >= 4096; ``+cg``: constraint generation,
+docs/calippso.md §5.7, so that ``--paths auto auto+cg`` times today's path and constraint generation side by side;
+``+interior``: intermediate steps from the interior point, docs/calippso.md §10, and ``+vertex`` every LP a vertex,
+whatever the default at the input's N, §10.11; ``/reference``: the reference's bounds schedule,
 docs/calippso.md §10, so that ``--paths auto auto/reference --table`` is the trajectory A/B, each path's certificate
 checked on its own by the issue's validity criteria and its LPs and CPU printed as ratios to the first path's):
 ``ipx+crossover`` is the old path (IPX interior point, HiGHS crossover), ``hipo`` the new path (HiPO interior point,
@@ -22,8 +23,9 @@ its vertex certified by the active-set solve, crossover only as the fallback; ``
 on). The first path listed is the reference: every other path must give the same contact network, the same rattlers
 and force balance <= 1e-10 (printed as "agree"; a path that changes the trajectory may end on another valid state).
 Times are CPU seconds of this process (the machine is shared: wall time is printed too but is no figure), per LP and
-in total. ``@max_lps`` stops a path after that many LPs, for an old path too slow to run to the end (its per-LP times
-are then compared with the same LPs of the other paths, not its total).
+in total; ``--lp-log DIR`` keeps each path's per-LP CSV. ``@max_lps`` stops a path after that many LPs, for an old
+path too slow to run to the end (its per-LP times are then compared with the same LPs of the other paths, not its
+total).
 
 ``--baseline REF`` runs every path twice, side by side in one run: with today's package (this checkout) and with
 the package as it was at git revision REF (exported by ``git archive`` into a temporary folder and run in a child
@@ -57,6 +59,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 import time
 
@@ -101,8 +104,9 @@ METHOD_LETTERS = {"ipm": "I", "simplex": "S", "active-set": "a", "warm": "w", "v
 
 
 def parse_path(text: str) -> dict:
-    """``solver[:threads][+crossover][-warm][+cg][+interior][/schedule][@max_lps]`` -> run_calippso keyword
-    arguments (``+interior``: intermediate steps from the interior point; ``-warm``:
+    """``solver[:threads][+crossover][-warm][+cg][+interior|+vertex][/schedule][@max_lps]`` -> run_calippso keyword
+    arguments (``+interior``: intermediate steps from the interior point; ``+vertex``: every LP a vertex, whatever
+    the default of the input's N; neither: run_calippso's default, docs/calippso.md §10.11; ``-warm``:
     no warm starts, as from N = 4096 on; ``+cg``: constraint generation, docs/calippso.md §5.7; ``/schedule``: the
     bounds schedule, ``adaptive``, ``reference`` or ``trust``, docs/calippso.md §10)."""
     text, _, max_lps = text.partition("@")
@@ -110,6 +114,8 @@ def parse_path(text: str) -> dict:
     kw = {"schedule": schedule} if schedule else {}
     if text.endswith("+interior"):
         text, kw["interior_steps"] = text.removesuffix("+interior"), True
+    elif text.endswith("+vertex"):
+        text, kw["interior_steps"] = text.removesuffix("+vertex"), False
     if text.endswith("+cg"):
         text, kw["constraint_generation"] = text.removesuffix("+cg"), True
     if text.endswith("-warm"):
@@ -178,16 +184,15 @@ class Certificate:
         return "".join(METHOD_LETTERS[names[int(c)]] for c in self.history["method"])
 
 
-def timed_run(start: Packing, kw: dict) -> Certificate:
-    """run_calippso and the CPU seconds it took (this process, all its threads)."""
+def timed_run(start: Packing, kw: dict, lp_log: str | None = None) -> Certificate:
+    """run_calippso and the CPU seconds it took (this process, all its threads); ``lp_log``: its per-LP CSV."""
     cpu0 = time.process_time()
-    result = run_calippso(start, progress_interval=30.0, **kw)
+    result = run_calippso(start, progress_interval=30.0, lp_log=lp_log, **kw)
     return Certificate.of(result, time.process_time() - cpu0)
 
 
 def baseline_run(ref: str, start_file: str, path: str, workdir: str) -> Certificate:
     """The certification of ``start_file`` by the package as it was at git revision ``ref``, in a child process."""
-    import os
     import subprocess
     from pathlib import Path
 
@@ -417,6 +422,8 @@ def main(argv=None) -> int:
     ap.add_argument("--table", action="store_true", help="print one markdown table row per path at the end")
     ap.add_argument("--label", help="the input's name in the table (default: the fixture or start file)")
     ap.add_argument("--dump", help=argparse.SUPPRESS)  # a child of --baseline: write the certificate here
+    ap.add_argument("--lp-log", metavar="DIR",
+                    help="write each path's per-LP record (docs/calippso.md §10.1) to DIR/LABEL.PATH.lps.csv")
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args(argv)
     if args.tile < 1:
@@ -468,14 +475,19 @@ def main(argv=None) -> int:
     results = []
     for path in args.paths:
         kw = parse_path(path)
+        lp_log = None
+        if args.lp_log:  # one CSV per path, written LP by LP: a path stopped by hand keeps its LPs
+            os.makedirs(args.lp_log, exist_ok=True)
+            stem = os.path.basename(args.label or label).removesuffix(".h5")
+            lp_log = os.path.join(args.lp_log, f"{stem}.{path.replace('/', '_').replace(':', '_')}.lps.csv")
         if kw["threads"] == 1:
-            cert = timed_run(start, kw)
+            cert = timed_run(start, kw, lp_log)
         else:  # HiGHS fixes its thread count at a process's first solve: run this path in a fresh process
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
 
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-                cert = pool.submit(timed_run, start, kw).result()
+                cert = pool.submit(timed_run, start, kw, lp_log).result()
         report(path, start, cert)
         target = TARGETS.get(start.n)
         pressure = float(start.metadata.get("reduced_pressure") or math.nan)

@@ -21,6 +21,9 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
   ``ls10000_p1e12_s03_gamma1e-3`` the sigma = 0.3 one at gamma = 1e-3, as ``ls10000_p1e12_s0``;
 - ``ls16384_p1e5``: the reference's own case (CALiPPSO.jl's documented N = 16384 run starts from an LS output at
   p = 1e5), LS at gamma = 1e-3, sigma = 0;
+- ``ls4096_p1e5``, ``ls4096_p1e12``: the same two LS kinds (gamma = 1e-3, sigma = 0, p = 1e5 and 1e12) at N = 4096,
+  where the LP path's default changes (docs/calippso.md §10.11); ``ls512_p1e12`` the p = 1e12 kind at N = 512, whose
+  2 x 2 x 2 tiling (``bench_calippso.py --tile 2``) is an N = 4096 input made in minutes;
 - ``mls10000_p1e12_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
   (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_p1e12_s0``. Hours of CPU; its MLS run
   checkpoints beside the file as well.
@@ -50,6 +53,12 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     # the reference's own case (issue 46): LS at N = 16384, sigma = 0, to p = 1e5; gamma = 1e-3 so that the
     # packing's true pressure is near its stop pressure (at gamma = 1e-2 it is ~10 times lower and creeps, §9)
     "ls16384_p1e5": (16_384, 0.0, 1e-3, 1e5, 1),
+    # the two LS kinds at N = 4096, the smallest N where every LP is a HiPO solve (issue 46: the default path against
+    # interior steps on whole runs, docs/calippso.md §10.11)
+    "ls4096_p1e5": (4096, 0.0, 1e-3, 1e5, 1),
+    "ls4096_p1e12": (4096, 0.0, 1e-3, 1e12, 1),
+    # tiled 2 x 2 x 2 (bench_calippso.py --tile 2): an N = 4096 input in minutes, where ls4096_p1e12 takes an hour
+    "ls512_p1e12": (512, 0.0, 1e-3, 1e12, 1),
 }
 #: name -> the LS fixture its MLS search starts from (the paper's MLS parameters, the workflow's defaults)
 MLS_FIXTURES: dict[str, str] = {"mls10000_p1e12_s0": "ls10000_p1e12_s0"}

@@ -3,6 +3,7 @@
     python benchmarks/calippso_paths_stats.py --out DIR                     # both input sets, auto vs auto/reference
     python benchmarks/calippso_paths_stats.py --out DIR --summarize          # the tables from the records in DIR
     python benchmarks/calippso_paths_stats.py --out DIR --paths auto auto+interior --sets ls1024
+    python benchmarks/calippso_paths_stats.py --out DIR --paths auto auto+interior --shard 1/3   # one of 3 processes
 
 A path that changes the trajectory may end on another valid jammed state, so two paths are compared by statistics
 over many inputs, not bitwise (docs/calippso.md §10.5). The inputs:
@@ -69,7 +70,17 @@ def record_of(cert: Certificate, n: int, start_phi: float) -> dict:
             "force_balance": cert.force_balance_residual, "isostatic": bool(cert.isostatic)}
 
 
-def run(out: Path, paths: list[str], sets: list[str], mls_count: int, ls_count: int) -> None:
+def _recorded_cpu(out: Path, group: str, name: str, path: str) -> float:
+    """CPU s of the record of ``path`` on an input (inf if there is none)."""
+    f = out / group / name / f"{path.replace('/', '_')}.json"
+    return json.loads(f.read_text())["cpu_s"] if f.exists() else math.inf
+
+
+def run(out: Path, paths: list[str], sets: list[str], mls_count: int, ls_count: int,
+        shard: tuple[int, int] = (0, 1)) -> None:
+    """Certify every input with every path it has no record of yet. Inputs go cheapest first by the first path's
+    record where it has one (so that a sitting cut short leaves the most pairs), and ``shard`` (i, k) takes every
+    k-th of them from the i-th, so that k processes share the inputs without overlap."""
     from spherejam.calippso.run import run_calippso
 
     inputs: list[tuple[str, str, object]] = []
@@ -77,6 +88,8 @@ def run(out: Path, paths: list[str], sets: list[str], mls_count: int, ls_count: 
         inputs += [("mls1000", name, path) for name, path in mls_inputs(mls_count)]
     if "ls1024" in sets:
         inputs += [("ls1024", f"seed{s}", s) for s in range(1, ls_count + 1)]
+    inputs.sort(key=lambda g: _recorded_cpu(out, g[0], g[1], paths[0]))  # stable: the listed order among equals
+    inputs = inputs[shard[0]::shard[1]]
     for k, (group, name, source) in enumerate(inputs, 1):
         todo = [p for p in paths if not (out / group / name / f"{p.replace('/', '_')}.json").exists()]
         if not todo:
@@ -170,11 +183,18 @@ def main(argv=None) -> int:
     ap.add_argument("--sets", nargs="+", choices=SETS, default=list(SETS))
     ap.add_argument("--mls-count", type=int, default=30)
     ap.add_argument("--ls-count", type=int, default=10)
+    ap.add_argument("--shard", default="0/1", metavar="I/K",
+                    help="take every K-th input from the I-th (0/1: all), so that K processes share the inputs")
     ap.add_argument("--summarize", action="store_true", help="only print the tables from the records")
     args = ap.parse_args(argv)
+    try:
+        i, k = (int(v) for v in args.shard.split("/"))
+        assert 0 <= i < k
+    except (ValueError, AssertionError):
+        ap.error(f"--shard={args.shard}: must be I/K with 0 <= I < K")
     if not args.summarize:
         os.environ.setdefault("OMP_NUM_THREADS", "1")
-        run(args.out, args.paths, args.sets, args.mls_count, args.ls_count)
+        run(args.out, args.paths, args.sets, args.mls_count, args.ls_count, (i, k))
     summarize(args.out)
     return 0
 

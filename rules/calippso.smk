@@ -12,16 +12,20 @@ rule calippso:
     params:
         # at N = 1e4 one certification takes tens of minutes: a job cut at its time limit resumes from here
         checkpoint=PATHS.checkpoint("calippso"),
+        # calippso.interior_steps forces the LP path; absent, the package chooses it by N
+        options=EXP.calippso_options(),
     log:
         PATHS.log("calippso"),
     benchmark:
         PATHS.benchmark("calippso")
     threads: EXP.calippso_threads
     resources:
-        **job_resources("calippso", EXP.size_of, threads=EXP.calippso_threads),
+        **job_resources("calippso", EXP.size_of, threads=EXP.calippso_threads,
+                        interior_steps=EXP.calippso_interior_steps),
     group:
         "analysis"
     shell:
         "spherejam calippso {input} --threads {threads} --checkpoint {params.checkpoint} --discard-stale-checkpoint"
+        " {params.options}"
         " -o {output.packing}"
         " --summary {output.summary} > {log} 2>&1"

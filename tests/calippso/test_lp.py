@@ -211,6 +211,35 @@ def test_interior_steps_end_on_a_vertex_and_certify(ls_jammed_256):
     assert result.packing.metadata["parameters"]["interior_steps"] is True
 
 
+def test_the_default_takes_interior_steps_from_its_n_on_and_certifies(ls_jammed_256, monkeypatch):
+    """The one rule by N (core.calippso_path): with the threshold set at this packing's N (256, so that the test
+    takes seconds), the default run takes interior steps and ends on a valid certificate; just above it, every LP is a
+    vertex; an explicit choice wins either way; the parameters record the path that ran (docs §10.11)."""
+    from spherejam.calippso.solution import METHOD_CODES
+    from spherejam.core import calippso_path
+
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", None)  # unset: never by default, only when asked
+    assert not calippso_path.interior_steps_at(10**6) and calippso_path.interior_steps_at(2, True)
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", 4096)
+    assert calippso_path.interior_steps_at(4096) and not calippso_path.interior_steps_at(4095)
+    assert not calippso_path.interior_steps_at(10**6, False) and calippso_path.interior_steps_at(2, True)
+    interior = METHOD_CODES["interior"]
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", ls_jammed_256.n)
+    at = run_calippso(ls_jammed_256)
+    assert_jammed(at, 3)
+    assert np.any(at.history["method"] == interior) and at.history["method"][-1] != interior
+    assert at.packing.metadata["parameters"]["interior_steps"] is True
+    # the LPs up to the first interior step: the vertices before it are the vertex path's own, so the vertex path
+    # reaches the same LP with the same sqrt(Gamma_prev) - 1 above the interior-step threshold
+    k = int(np.argmax(at.history["method"] == interior)) + 1
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", ls_jammed_256.n + 1)
+    below = run_calippso(ls_jammed_256, max_iterations=k)
+    assert below.iterations == k and not np.any(below.history["method"] == interior)
+    assert below.packing.metadata["parameters"]["interior_steps"] is False
+    forced = run_calippso(ls_jammed_256, max_iterations=k, interior_steps=True)
+    assert forced.history["method"][k - 1] == interior
+
+
 def test_a_checkpoint_resumes_with_other_trajectory_settings(ls_jammed_256, tmp_path):
     """A run checkpointed on the default path resumes with interior steps (a trajectory setting, docs §10.6): the
     change is recorded with the LP it starts at, the later LPs take the new path, and the certificate is valid; a

@@ -24,6 +24,10 @@ def test_cli_calippso(tmp_path, capsys):
     assert main(["calippso", str(src), "-o", str(out2), "--json", "--constraint-generation"]) == 0
     assert json.loads(capsys.readouterr().out)["is_isostatic"] == 1.0
     assert read_packing(out2).metadata["parameters"]["constraint_generation"] is True
+    # the LP path: by N when not given (N = 96 is below the rule's N: vertices), forced by --interior-steps
+    assert jammed.metadata["parameters"]["interior_steps"] is False
+    assert main(["calippso", str(src), "-o", str(out2), "--interior-steps"]) == 0
+    assert read_packing(out2).metadata["parameters"]["interior_steps"] is True
 
 
 def test_cli_solver_choice_is_recorded(tmp_path, capsys, ls_jammed_256):

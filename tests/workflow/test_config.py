@@ -33,6 +33,44 @@ def test_threads_config_key_is_validated(bad):
         cpus_per_task("calippso", bad)
 
 
+def test_calippso_interior_steps_forces_the_lp_path_and_its_price(tmp_path, capsys):
+    """calippso.interior_steps: true or false becomes the rule's flag and the cost model's LP path; absent or null
+    the package chooses by N (docs/calippso.md §10.11); anything else is one line naming the field (exit 2)."""
+    from pathlib import Path
+
+    import yaml
+
+    from spherejam.cli import main
+    from spherejam.core.calippso_path import interior_steps_at
+    from spherejam.workflow.config import check_config, validate_config
+    from spherejam.workflow.cost_model import plan
+    from spherejam.workflow.experiment import Experiment
+
+    root = Path(__file__).resolve().parents[2]
+    schema = root / "config" / "schema.yaml"
+    config = yaml.safe_load((root / "config" / "tiny.yaml").read_text())
+    hours = {}
+    for value, flag in ((None, ""), (True, "--interior-steps"), (False, "--no-interior-steps")):
+        config["calippso"] = {"enabled": True, "threads": 1, "interior_steps": value}
+        exp = Experiment(validate_config(yaml.safe_load(yaml.safe_dump(config)), schema))
+        assert exp.calippso_interior_steps is value and exp.calippso_options() == flag
+        [table] = plan(exp.config).values()
+        hours[value] = table["calippso"]["cpu_hours"]
+    # tiny's N is below the threshold: the default prices the vertex path, a forced path its own
+    assert not interior_steps_at(max(exp.sizes))
+    assert hours[None] == pytest.approx(hours[False]) and hours[True] != pytest.approx(hours[False])
+    for bad in ("maybe", 1, 0.5):
+        config["calippso"]["interior_steps"] = bad
+        for check in (lambda c: validate_config(c, schema), check_config):
+            with pytest.raises(InputError, match=r"calippso\.interior_steps=") as info:
+                check(yaml.safe_load(yaml.safe_dump(config)))
+            assert "\n" not in str(info.value)
+        (tmp_path / "bad.yaml").write_text(yaml.safe_dump(config))
+        assert main(["cost", str(tmp_path / "bad.yaml")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "calippso.interior_steps" in err[0]
+
+
 def test_calippso_per_cell_certifies_a_fixed_sample_and_prices_only_it(tmp_path, capsys):
     """calippso.per_cell: k certifies k packings of each cell (N, container, distribution), the same ones for the
     same config; the dataset inputs and `spherejam cost` hold only them; a bad value is one line naming the field

@@ -75,17 +75,31 @@ def test_costs_grow_with_n_and_with_slower_rates():
 
 
 def test_calippso_model_matches_the_measured_certification_times(monkeypatch):
-    """Mean LPs per certification in the reproduction ladder (3.9, 6.8 and 14.7 at N = 250, 500, 1000), its mean
-    CPU s per certification at N = 1000 (28.8), and the mean CPU s per LP measured at N = 10^4 (313, 52 LPs of three
-    inputs) (docs/cluster.md §3)."""
+    """Mean LPs per certification in the reproduction ladder (3.9, 6.8 and 14.7 at N = 250, 500, 1000); CPU s per LP
+    on the vertex path through 30 whole N = 1000 certifications (0.52) and the mean at N = 10^4 (313, 52 LPs of three
+    inputs); with interior steps through the same inputs' whole certifications (IPX below N = 4096) and the N = 16384
+    run's interior steps (benchmarks/calippso_cost_fit.py, docs/cluster.md §3). Each N is priced on the path that
+    runs there."""
+    from spherejam.core import calippso_path
+
     for n, lps in ((250, 3.9), (500, 6.8), (1000, 14.7)):
         assert cr.calippso_lps(n) == pytest.approx(lps, rel=0.1)
-    assert cr.cpu_seconds("calippso", 1000) == pytest.approx(28.8, rel=0.1)
-    assert cr.cpu_seconds("calippso", 10000) / cr.calippso_lps(10000) == pytest.approx(313.0, rel=0.1)
-    # a certification at N = 10^4 (~11 h expected, 3x that with the margin) asks for the ceiling and continues from
-    # its checkpoint over several submissions
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", None)  # today's default: every LP a vertex
+    assert cr.cpu_seconds("calippso", 1000) / cr.calippso_lps(1000) == pytest.approx(0.52, rel=0.05)
+    assert cr.calippso_lp_seconds(10000) == pytest.approx(313.0, rel=0.05)
+    assert cr.calippso_lp_seconds(1000, interior_steps=True) == pytest.approx(0.816, rel=0.05)
+    assert cr.calippso_lp_seconds(16384, interior_steps=True) == pytest.approx(120.0, rel=0.05)
+    # a vertex-path certification at N = 10^4 (~11 h expected, 3x that with the margin) asks for the ceiling and
+    # continues from its checkpoint over several submissions; with interior steps it fits in one
     monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
     assert cr.runtime_minutes("calippso", 10000) == cr.MAX_RUNTIME_MINUTES
+    assert cr.runtime_minutes("calippso", 10000, interior_steps=True) < cr.MAX_RUNTIME_MINUTES
+    assert cr.cpu_seconds("calippso", 10000) > 3 * cr.cpu_seconds("calippso", 10000, interior_steps=True)
+    # the path that runs: with the rule set, vertices below its N, interior steps from it on; a forced path wins
+    monkeypatch.setattr(calippso_path, "INTERIOR_STEPS_MIN_N", 4096)
+    assert cr.calippso_lp_seconds(4095) == cr.calippso_lp_seconds(4095, interior_steps=False)
+    assert cr.calippso_lp_seconds(4096) == cr.calippso_lp_seconds(4096, interior_steps=True)
+    assert cr.calippso_lp_seconds(10000) < cr.calippso_lp_seconds(10000, interior_steps=False) / 3
 
 
 def test_floor_ceiling_and_attempts(monkeypatch):
@@ -180,13 +194,14 @@ def _top_level_imports(module) -> set[str]:
 def test_module_imports_nothing_heavy():
     # Snakemake evaluates these functions for every job while building the DAG; only the sizing helpers
     # (plan, load_configs) import more, inside the functions.
-    from spherejam.core import rate_ladder
+    from spherejam.core import calippso_path, rate_ladder
     from spherejam.workflow import pair_load
 
     allowed = {"__future__", "math", "operator", "os", "dataclasses", "..core.errors", "..core.rate_ladder",
-               ".pair_load"}
+               ".pair_load", "..core.calippso_path"}
     assert _top_level_imports(cr) <= allowed
     assert _top_level_imports(rate_ladder) <= {"__future__", "math"}
+    assert _top_level_imports(calippso_path) <= {"__future__"}
     assert _top_level_imports(pair_load) <= {"__future__", "math", "..core.errors"}
 
 

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core import interrupt
+from ..core.calippso_path import interior_steps_at
 from ..core.checkpoint import Checkpoint, fingerprint
 from ..core.errors import OverlapError, SimulationError, require
 from ..core.history import History
@@ -266,7 +267,7 @@ def run_calippso(
     crossover: bool | None = None,
     constraint_generation: bool = False,
     schedule: str = "adaptive",
-    interior_steps: bool = False,
+    interior_steps: bool | None = None,
     lp_log: str | Path | None = None,
 ) -> CalippsoResult:
     """Jam ``packing`` with CALiPPSO and return the jammed packing, its contact network and forces.
@@ -346,11 +347,13 @@ def run_calippso(
         LP from sqrt(Gamma_prev) = 1.01, then the regimes of the previous LP's sqrt(Gamma) alone, no widening) or
         "trust" (adaptive, with a trust region: s_bound in regimes 2 and 3 capped at
         :data:`~.schedule.TRUST_FACTOR` sqrt(sqrt(Gamma_prev) - 1) R, the cutoff shrunk with it, docs §10.7).
-    interior_steps : bool
+    interior_steps : bool or None
         Take an LP whose previous sqrt(Gamma) - 1 exceeds :data:`INTERIOR_STEP_MIN` as an intermediate step from its
         interior point, without crossover or a certified vertex (method "interior"; its rows and bounds are checked
         and the overlap guard of docs §1.8 applies); the LPs below it, the convergence test and the force LP take
-        vertices as before (docs §10). Off (the default): every LP is a vertex.
+        vertices as before (docs §10). Off: every LP is a vertex. None (the default): the one rule by N,
+        :func:`~spherejam.core.calippso_path.interior_steps_at` (on from its ``INTERIOR_STEPS_MIN_N`` spheres;
+        off at every N while that is None, docs §10.11); the parameters record what ran.
     lp_log : path or None
         Write the per-LP record there as CSV (:mod:`.lp_log`, docs §10), one row appended and flushed per LP;
         a resumed run rewrites it from its checkpoint's history first. Not part of the checkpoint's fingerprint.
@@ -359,6 +362,7 @@ def run_calippso(
               initial_sqrt_inflation, zero_force, solver_tolerance, overlap_tolerance, gap_range, progress_interval,
               regime_thresholds, threads, schedule)
     solver = resolve_solver(solver, packing.n)
+    interior_steps = interior_steps_at(packing.n, interior_steps)
     wall0 = time.perf_counter()
     report = packing.check(overlap_tolerance)
     if not report.ok:
@@ -457,7 +461,7 @@ def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, i
 class _EarlierTrajectory:
     """Accepts a checkpoint whose LPs were solved under other :data:`TRAJECTORY_CHANGES` and the same everything
     else (docs §10.6). A checkpoint records its settings (``trajectory``); one written before it did had the
-    defaults."""
+    defaults of then (every LP a vertex: interior steps became a default later, docs §10.11)."""
 
     def __init__(self, packing: Packing, hashed: dict[str, Any]):
         self.packing, self.hashed = packing, hashed

@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..core.calippso_path import INTERIOR_STEPS_MIN_N
 from ..core.output_paths import check_outputs, output_file
 from ..core.validation import CALIPPSO_ITERATIONS, LP_SOLVERS, THREADS
 from . import EXIT_FAILED, finite_float
@@ -43,9 +44,11 @@ def register(sub) -> None:
                         "a stable particle widened) or reference (CALiPPSO.jl's: a loose first LP, the regimes of "
                         "the previous sqrt(Gamma) alone, no widening) or trust (adaptive, with s_bound capped at "
                         "30 sqrt(sqrt(Gamma)-1) R and the cutoff shrunk with it); docs/calippso.md 10")
-    p.add_argument("--interior-steps", action="store_true",
+    p.add_argument("--interior-steps", action=argparse.BooleanOptionalAction, default=None,
                    help="step from the interior point (no vertex, no crossover) while sqrt(Gamma)-1 > 1e-9; the "
-                        "final LPs and the force LP take vertices (docs/calippso.md 10)")
+                        "final LPs and the force LP take vertices (default: "
+                        + (f"from N = {INTERIOR_STEPS_MIN_N} on" if INTERIOR_STEPS_MIN_N else "off")
+                        + "; --no-interior-steps: every LP a vertex; docs/calippso.md 10.11)")
     p.add_argument("--lp-log", type=output_file, default=None,
                    help="write one CSV row per LP here (sqrt(Gamma)-1, max |s|, bounds, contacts gained and lost, "
                         "solver path, CPU and wall s), flushed after each LP; a resumed run rewrites it from its "

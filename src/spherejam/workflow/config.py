@@ -40,6 +40,9 @@ def check_config(config: Any) -> dict:
             if value is None and field in _NULLABLE:
                 continue
             bound.check(path, value)
+    interior = (config.get("calippso") or {}).get("interior_steps")
+    if interior is not None and not isinstance(interior, bool):  # YAML's "yes"/"no" are already booleans
+        raise InputError(f"calippso.interior_steps={_short(interior)}: must be true, false or null")
     mls = config.get("mls") or {}
     if all(k in mls for k in ("initial_rate", "decrease_factor", "final_rate")):
         check_mls(mls["initial_rate"], mls["decrease_factor"], mls["final_rate"])

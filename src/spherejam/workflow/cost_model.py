@@ -17,9 +17,11 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
-* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of
-  ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` seconds each (the per-LP time includes the run's share of
-  its force LP and start-up).
+* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of :func:`calippso_lp_seconds` each, for the LP
+  path that runs at that N (:func:`spherejam.core.calippso_path.interior_steps_at`, or ``calippso.interior_steps``):
+  ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` on the vertex path,
+  ``CALIPPSO_INTERIOR_LP_SECONDS (N / 1000)^CALIPPSO_INTERIOR_EXPONENT`` with interior steps (the per-LP time
+  includes the run's share of its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
 
 The LS and MLS size factors count an N below 1000 as 1000.
@@ -38,6 +40,7 @@ import operator
 import os
 from dataclasses import dataclass
 
+from ..core.calippso_path import interior_steps_at
 from ..core.errors import InputError, require
 from ..core.rate_ladder import ladder_rates
 from .pair_load import LIST_SKIN, pair_load  # noqa: F401 (part of this module's interface)
@@ -65,13 +68,21 @@ FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
 #: CALiPPSO: mean LPs of a certification at N = 1000 and their growth with N, fitted to the reproduction ladder's
-#: 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7); and the CPU seconds per LP at
-#: N = 1000 (the ladder's 1324 LPs, start-up and force LPs included) growing as N^CALIPPSO_EXPONENT through the mean
-#: per LP at N = 10^4 (313 s: 52 LPs of three inputs). docs/cluster.md §3.
+#: 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7). docs/cluster.md §3.
 CALIPPSO_LPS = 14.2
 CALIPPSO_LPS_EXPONENT = 0.96
-CALIPPSO_LP_SECONDS = 1.96
-CALIPPSO_EXPONENT = 2.20
+#: CPU seconds per LP on the vertex path (every LP a vertex; the default, below core.calippso_path's
+#: INTERIOR_STEPS_MIN_N when it is set): at N = 1000 the mean of 30 archived MLS outputs certified whole (577 LPs,
+#: start-up and force LPs included), growing as N^CALIPPSO_EXPONENT through the mean per LP at N = 10^4 (313 s: 52 LPs
+#: of three inputs). Refitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
+CALIPPSO_LP_SECONDS = 0.52
+CALIPPSO_EXPONENT = 2.78
+#: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
+#: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 28 of the same N = 1000 MLS outputs
+#: (223 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
+#: interior steps measured at N = 4096 and 10^4. Fitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
+CALIPPSO_INTERIOR_LP_SECONDS = 0.816
+CALIPPSO_INTERIOR_EXPONENT = 1.786
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
@@ -169,14 +180,24 @@ def calippso_lps(n: int) -> float:
     return CALIPPSO_LPS * (n / 1000.0) ** CALIPPSO_LPS_EXPONENT
 
 
+def calippso_lp_seconds(n: int, interior_steps: bool | None = None) -> float:
+    """Expected CPU seconds of one CALiPPSO LP at N spheres (the run's start-up and force LP shared out), on the path
+    that runs: ``interior_steps`` as the config forces it, None the package's rule by N (docs/cluster.md §3)."""
+    n = _check_n(n)
+    if interior_steps_at(n, interior_steps):
+        return CALIPPSO_INTERIOR_LP_SECONDS * (n / 1000.0) ** CALIPPSO_INTERIOR_EXPONENT
+    return CALIPPSO_LP_SECONDS * (n / 1000.0) ** CALIPPSO_EXPONENT
+
+
 def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: float = 10.0,
-                decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0) -> float:
+                decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0,
+                interior_steps: bool | None = None) -> float:
     """Expected CPU seconds of the work of one job (no start-up, no margin).
 
     ``rate`` is the generation rate gamma of an ``ls`` or ``fb`` job (required there, ignored elsewhere);
     ``initial_rate``, ``decrease_factor`` and ``final_rate`` describe an ``mls`` job; ``load`` is the size
     distribution's :func:`pair_load` W (1: equal spheres), which scales the event-driven stages (ls, mls) by
-    :func:`distribution_factor`.
+    :func:`distribution_factor`; ``interior_steps`` is a ``calippso`` job's LP path (None: the package's rule by N).
     """
     _check_stage(stage)
     n = _check_n(n)
@@ -191,7 +212,7 @@ def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: 
         return (n * mls_collisions_per_particle(initial_rate, decrease_factor, final_rate, n) / collisions_per_second(n)
                 * factor)
     if stage == "calippso":
-        return calippso_lps(n) * CALIPPSO_LP_SECONDS * (n / 1000.0) ** CALIPPSO_EXPONENT
+        return calippso_lps(n) * calippso_lp_seconds(n, interior_steps)
     if stage == "analyze":
         return ANALYZE_SECONDS * n
     return 1e-4 * n  # seed
@@ -217,7 +238,8 @@ def _check_attempt(attempt) -> int:
 
 
 def runtime_minutes(stage: str, n: int, rate: float | None = None, attempt: int = 1, *, initial_rate: float = 10.0,
-                    decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0) -> int:
+                    decrease_factor: float = 2.0, final_rate: float = 1e-4, load: float = 1.0,
+                    interior_steps: bool | None = None) -> int:
     """SLURM time limit of one job, minutes (Snakemake's ``runtime`` resource).
 
     ``attempt`` is Snakemake's attempt counter (1 on the first submission): the limit grows with it, so a job that
@@ -225,7 +247,7 @@ def runtime_minutes(stage: str, n: int, rate: float | None = None, attempt: int 
     """
     attempt = _check_attempt(attempt)
     work = cpu_seconds(stage, n, rate, initial_rate=initial_rate, decrease_factor=decrease_factor,
-                       final_rate=final_rate, load=load)
+                       final_rate=final_rate, load=load, interior_steps=interior_steps)
     minutes = math.ceil((STARTUP_SECONDS + SAFETY * work) / 60.0)
     minutes = max(minutes, FLOOR_MINUTES[stage]) * attempt
     return int(min(minutes, max_runtime_minutes()))
@@ -264,12 +286,13 @@ def estimate(stage: str, n: int, rate: float | None = None, attempt: int = 1, *,
     )
 
 
-def job_resources(stage: str, n, ladder=None, threads: int = 1, load=None) -> dict:
+def job_resources(stage: str, n, ladder=None, threads: int = 1, load=None, interior_steps: bool | None = None) -> dict:
     """The ``resources:`` of a workflow rule: time limit and memory as functions of a job's wildcards and attempt,
     and its cores. ``n`` is the number of spheres N, or a function of the wildcards giving it (a ladder of N);
     ``ladder(wildcards)`` gives an ``mls`` job's rate ladder (``initial_rate``, ``decrease_factor``,
     ``final_rate``); ``ls`` and ``fb`` jobs take their rate gamma from the ``rate`` wildcard; ``threads`` are a
-    ``calippso`` job's cores (:func:`cpus_per_task`); ``load(wildcards)`` gives the job's size distribution's
+    ``calippso`` job's cores (:func:`cpus_per_task`) and ``interior_steps`` its LP path (config
+    ``calippso.interior_steps``; None: by N); ``load(wildcards)`` gives the job's size distribution's
     :func:`pair_load` at its N (None: equal spheres)."""
     _check_stage(stage)
     if callable(n):
@@ -283,7 +306,7 @@ def job_resources(stage: str, n, ladder=None, threads: int = 1, load=None) -> di
     def runtime(wildcards, attempt):
         rate = float(wildcards.rate) if stage in ("ls", "fb") else None
         return runtime_minutes(stage, size(wildcards), rate, attempt, **(ladder(wildcards) if ladder else {}),
-                               load=load(wildcards) if load else 1.0)
+                               load=load(wildcards) if load else 1.0, interior_steps=interior_steps)
 
     def memory(wildcards, attempt):
         return mem_mb(stage, size(wildcards), attempt)
@@ -322,7 +345,7 @@ def plan(config: dict) -> dict[int | str, dict[str, dict[str, float]]]:
         if config.get("analysis", {}).get("enabled", False):
             jobs.append((n, where, "analyze", None, {}))
         if exp.certifies(run):
-            jobs.append((n, where, "calippso", None, {}))
+            jobs.append((n, where, "calippso", None, {"interior_steps": exp.calippso_interior_steps}))
     for g in exp.grid_runs():
         n = exp.size(g.source)
         jobs.append((n, group(g.source), "mls_grid", None, {**g.ladder, "load": exp.pair_load(g.source.dist, n)}))

@@ -877,6 +877,19 @@ class Experiment:
         """Cores of one CALiPPSO job (the rule's ``threads``; the schema's default is 1)."""
         return int(self.config.get("calippso", {}).get("threads", 1))
 
+    @property
+    def calippso_interior_steps(self) -> bool | None:
+        """``calippso.interior_steps``: True or False forces the LP path of every certification, None (absent or
+        null) leaves it to N (:func:`spherejam.core.calippso_path.interior_steps_at`, docs/calippso.md §10.11)."""
+        value = self.config.get("calippso", {}).get("interior_steps")
+        return None if value is None else bool(value)
+
+    def calippso_options(self) -> str:
+        """The ``spherejam calippso`` flags of the config: ``--interior-steps`` or ``--no-interior-steps`` if
+        ``calippso.interior_steps`` forces a path (else the package's rule by N)."""
+        forced = self.calippso_interior_steps
+        return "" if forced is None else ("--interior-steps" if forced else "--no-interior-steps")
+
     # --- paths -----------------------------------------------------------------------------------------------------
     def path(self, run: Run, stage: str) -> Path:
         """File of a run: stage is a key of :data:`PACKING_FILES` (``poisson``, ``initial`` (LS/FB output),

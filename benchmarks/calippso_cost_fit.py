@@ -1,0 +1,108 @@
+"""CPU seconds per CALiPPSO LP, per LP path, fitted to the measured runs in benchmarks/records/calippso/ (issue 46).
+
+    python benchmarks/calippso_cost_fit.py
+
+The cost model (``spherejam.workflow.cost_model``, docs/cluster.md §3) prices a certification as its LP count times
+``A (N / 1000)^b`` CPU seconds per LP, with one (A, b) per LP path: the vertex path (every LP a vertex; the default
+below ``core.calippso_path.INTERIOR_STEPS_MIN_N``) and interior steps (the default from there on). Each pair is a
+power law through two anchors, and every other measured row is printed against it (model / measured), so that the
+rows not in the fit check it. Two kinds of row:
+
+* a whole run: its CPU seconds (start-up of the run, every LP and the force LP) over its LPs, from the per-input
+  records of ``calippso_paths_stats.py`` (``paths/<set>/<input>/<path>.json``, pooled: total CPU over total LPs);
+* LPs of a run that has not ended: the mean ``iteration_cpu_s`` of its LPs of one method from its per-LP CSV
+  (``calippso/lp_log.py``); without the final vertex LPs and the force LP this is a lower bound of a whole run's
+  mean.
+
+CPU seconds are those of one process on the shared 2-core machine at the lowest priority (load 3-11): CPU time, not
+wall time, but a loaded machine's caches make them somewhat larger than on an idle core.
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import json
+import math
+import sys
+from pathlib import Path
+
+RECORDS = Path(__file__).resolve().parent / "records" / "calippso"
+
+
+def pooled(group: str, path: str) -> tuple[int, float, int, int]:
+    """(N, CPU s per LP, inputs, LPs) over the ``paths/<group>/*/<path>.json`` records: total CPU over total LPs."""
+    recs = [json.loads(Path(f).read_text()) for f in sorted(glob.glob(str(RECORDS / "paths" / group / "*" /
+                                                                          f"{path}.json")))]
+    lps = sum(r["lps"] for r in recs)
+    return (recs[0]["n"] if recs else 0), (sum(r["cpu_s"] for r in recs) / lps if lps else math.nan), len(recs), lps
+
+
+def lp_rows(csv_name: str, method: str | None, n: int) -> tuple[int, float, int]:
+    """(N, mean CPU s of its LPs of ``method`` (None: every LP), LPs) from a per-LP CSV."""
+    with open(RECORDS / csv_name) as fh:
+        cpu = [float(r["iteration_cpu_s"]) for r in csv.DictReader(fh) if method in (None, r["method"])]
+    return n, (sum(cpu) / len(cpu) if cpu else math.nan), len(cpu)
+
+
+def power_law(a: tuple[int, float], b: tuple[int, float]) -> tuple[float, float]:
+    """(A, b) of A (N / 1000)^b through two (N, seconds) points."""
+    exponent = math.log(b[1] / a[1]) / math.log(b[0] / a[0])
+    return a[1] / (a[0] / 1000.0) ** exponent, exponent
+
+
+#: The vertex path's mean per LP at N = 1e4 over the three inputs measured there (docs/calippso.md §9, docs/cluster.md
+#: §3: an MLS output, 6 LPs, 389 s; an LS output at gamma = 1e-3, 4 LPs, 357 s; an LS output at sigma = 0.3, 42 LPs,
+#: 194 s), the anchor of the model before this fit; runs that did not end, so a lower bound of a whole run's mean.
+VERTEX_1E4 = (10_000, 313.0)
+
+
+def main() -> int:
+    rows: dict[str, list[tuple[str, object]]] = {
+        "vertex": [
+            ("30 archived N = 1000 MLS outputs, whole runs (paths/mls1000, auto)", lambda: pooled("mls1000", "auto")),
+            ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto)", lambda: pooled("ls1024", "auto")),
+            ("ls4096_p1e12 (N = 4096), every LP of the vertex path so far (run not ended)",
+             lambda: lp_rows("ls4096_p1e12.vertex.lps.csv", None, 4096)),
+            ("three N = 1e4 inputs, 52 LPs (docs/calippso.md §9; runs not ended)", lambda: VERTEX_1E4),
+        ],
+        "interior": [
+            ("30 archived N = 1000 MLS outputs, whole runs (paths/mls1000, auto+interior)",
+             lambda: pooled("mls1000", "auto+interior")),
+            ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto+interior)",
+             lambda: pooled("ls1024", "auto+interior")),
+            ("ls4096_p1e12 (N = 4096), its interior steps so far (run not ended)",
+             lambda: lp_rows("ls4096_p1e12.interior.lps.csv", "interior", 4096)),
+            ("ls10000_p1e12_s0 (N = 1e4), its interior steps so far (run not ended)",
+             lambda: lp_rows("ls10000_p1e12_s0.lps.csv", "interior", 10_000)),
+            ("ls16384_p1e5 (N = 16384), its interior steps so far (run not ended)",
+             lambda: lp_rows("ls16384_p1e5.lps.csv", "interior", 16_384)),
+        ],
+    }
+    # anchors: the whole runs at N = 1000 (the most inputs) and the largest N measured (LPs of runs not ended)
+    anchors = {"vertex": (0, 3), "interior": (0, 4)}
+    for path, candidates in rows.items():
+        measured = []
+        for label, get in candidates:
+            try:
+                n, t, *count = get()
+            except (OSError, ValueError):  # a record not (yet) in the repo
+                print(f"({path}: no record for {label})")
+                n, t, count = 0, math.nan, []
+            measured.append((label, n, t, count))
+        i, j = anchors[path]
+        a, b = power_law(measured[i][1:3], measured[j][1:3])
+        print(f"\n{path}: A = {a:.3g} s, b = {b:.3f}  (through rows {i + 1} and {j + 1})")
+        print("| row | N | measured CPU s / LP | (inputs,) LPs | model | model / measured | in the fit |")
+        print("|---|---|---|---|---|---|---|")
+        for k, (label, n, t, count) in enumerate(measured):
+            if not n:
+                continue
+            model = a * (n / 1000.0) ** b
+            print(f"| {label} | {n} | {t:.3g} | {', '.join(map(str, count)) or '-'} | {model:.3g} | "
+                  f"{model / t:.2f} | {'yes' if k in (i, j) else 'no'} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
