@@ -237,8 +237,9 @@ def main() -> int:
                   f"{model:.2f} | {model / d['slow']:.2f} | {'yes' if inside else 'no'} | {d['coll']:.2f} |")
         for inside, errs in errors.items():
             if errs:
+                within = sum(abs(x) <= 0.3 for x in errs)
                 print(f"{'in-fit' if inside else 'held-out'} rows: {len(errs)}, model error: mean "
-                      f"{np.mean(errs):+.1%}, largest {max(errs, key=abs):+.1%}, within +-30 %: {sum(abs(x) <= 0.3 for x in errs)}")
+                      f"{np.mean(errs):+.1%}, largest {max(errs, key=abs):+.1%}, within +-30 %: {within}")
 
     print()
     print_rows()
