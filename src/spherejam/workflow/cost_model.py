@@ -57,8 +57,8 @@ SPEED_EXPONENT = -0.05
 #: distribution costs more in a small box (its large spheres span more of it: fewer cells, pairs through several
 #: images). Fitted to the LS slow-downs of the bidisperse 1:3, 1:5 and 1:10 mixtures at several N and checked on the
 #: other distributions (`benchmarks/cost_fit.py fit`, docs/algorithms.md §7.9).
-DISTRIBUTION_COEFFICIENT = 0.33
-DISTRIBUTION_SIZE_EXPONENT = 0.0
+DISTRIBUTION_COEFFICIENT = 0.257
+DISTRIBUTION_SIZE_EXPONENT = 0.230
 #: Fraction of the summed per-rate LS costs that an MLS run needs at N = 1000, and the growth of its collisions per
 #: particle with N, (N / 1000)^MLS_SIZE_EXPONENT at every N: fitted to the mean MLS collisions of the reproduction
 #: ladder's searches from fast starts (N = 250, 500, 1000) and of the five N = 10^4 searches
