@@ -11,8 +11,8 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 * LS: ``LS_BASE + LS_AT_1E2 (1e-2 / gamma)^LS_EXPONENT`` collisions per particle from a Poisson start to
   p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS), both for
   equal spheres; a size distribution divides that speed by its :func:`distribution_factor`
-  ``1 + DISTRIBUTION_COEFFICIENT (W - 1)``, W its :func:`pair_load` (1 for equal spheres), and keeps the collisions
-  per particle of equal spheres (docs/algorithms.md §7.5).
+  ``1 + DISTRIBUTION_COEFFICIENT (N / 1000)^-DISTRIBUTION_SIZE_EXPONENT (W - 1)``, W its :func:`pair_load` at that N
+  (1 for equal spheres), and keeps the collisions per particle of equal spheres (docs/algorithms.md §7.9).
 * MLS: the LS collisions of every rate of its ladder (:mod:`spherejam.core.rate_ladder`), times
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
@@ -22,7 +22,7 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
 
-The LS and MLS size factors count an N below 1000 as 1000.
+The speed factor counts an N below 1000 as 1000; the MLS size factor holds at every N.
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
 [floor, ceiling], and multiplied by the attempt number: a job killed at its limit is submitted again by Snakemake
