@@ -122,7 +122,13 @@ COUNTED = {"mono": ("sigma", 0.0), "bi3": ("bi", 3.0), "bi5": ("bi", 5.0), "bi10
 EXTRA = {"lognormal0.3": ("sigma", 0.3), "bi1.4": ("bi", 1.4), "bi2": ("bi", 2.0), "bi4": ("bi", 4.0),
          "gauss0.2": ("psd", "gaussian:delta=0.2"), "uniform2": ("psd", "uniform:ratio=2"),
          "powerlaw-3r5": ("psd", "powerlaw:exponent=-3,ratio=5")}
-DISTRIBUTIONS = {**WIDE, **COUNTED, **EXTRA}
+#: The distributions of the PSD acceptance table (docs/psd.md §8, benchmarks/records/psd_acceptance_cpu.csv), drawn
+#: from their own specs, for the cost model's refit (``benchmarks/cost_fit.py measure``; docs/algorithms.md §7.9).
+PSD_TABLE = {"psd-bi1.4n": ("psd", "bidisperse:ratio=1.4,small=0.5,by=number"),
+             "psd-bi2": ("psd", "bidisperse:ratio=2,small=0.3,by=volume"),
+             "psd-bi4": ("psd", "bidisperse:ratio=4,small=0.3,by=volume"),
+             "gauss0.1": ("psd", "gaussian:delta=0.1"), "powder": ("psd", "table:examples/powder.csv")}
+DISTRIBUTIONS = {**WIDE, **COUNTED, **EXTRA, **PSD_TABLE}
 
 
 def bidisperse_start(n: int, ratio: float, small_volume: float = 0.3, seed: int = 12345):

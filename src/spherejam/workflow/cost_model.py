@@ -11,8 +11,8 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 * LS: ``LS_BASE + LS_AT_1E2 (1e-2 / gamma)^LS_EXPONENT`` collisions per particle from a Poisson start to
   p = 1e12, at ``COLLISIONS_PER_SECOND (N / 1000)^SPEED_EXPONENT`` collisions per CPU second (LS and MLS), both for
   equal spheres; a size distribution divides that speed by its :func:`distribution_factor`
-  ``1 + DISTRIBUTION_COEFFICIENT (W - 1)``, W its :func:`pair_load` (1 for equal spheres), and keeps the collisions
-  per particle of equal spheres (docs/algorithms.md §7.5).
+  ``1 + DISTRIBUTION_COEFFICIENT (N / 1000)^-DISTRIBUTION_SIZE_EXPONENT (W - 1)``, W its :func:`pair_load` at that N
+  (1 for equal spheres), and keeps the collisions per particle of equal spheres (docs/algorithms.md §7.9).
 * MLS: the LS collisions of every rate of its ladder (:mod:`spherejam.core.rate_ladder`), times
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
@@ -24,7 +24,7 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   includes the run's share of its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
 
-The LS and MLS size factors count an N below 1000 as 1000.
+The speed factor counts an N below 1000 as 1000; the MLS size factor holds at every N.
 
 The time limit is the expected time times ``SAFETY`` (3) plus start-up, rounded up to whole minutes, clipped to
 [floor, ceiling], and multiplied by the attempt number: a job killed at its limit is submitted again by Snakemake
@@ -56,13 +56,18 @@ LS_EXPONENT = 0.92
 COLLISIONS_PER_SECOND = 9.5e5
 SPEED_EXPONENT = -0.05
 #: Slow-down of the event-driven engine (LS, MLS) for a size distribution: equal spheres' collisions per CPU second
-#: divided by 1 + DISTRIBUTION_COEFFICIENT (W - 1), W = pair_load; fitted to the bidisperse rows of
-#: `benchmarks/bench_ls.py counts` and checked on the others (benchmarks/cost_fit.py, docs/algorithms.md §7.5).
-DISTRIBUTION_COEFFICIENT = 0.33
-#: Fraction of the summed per-rate LS costs that an MLS run needs at N <= 1000 (docs/cluster.md, 'Cost model').
-MLS_PHASE_FRACTION = 0.5
-#: Growth of the MLS collisions per particle with N above 1000: (N / 1000)^MLS_SIZE_EXPONENT.
-MLS_SIZE_EXPONENT = 0.66
+#: divided by 1 + DISTRIBUTION_COEFFICIENT (N / 1000)^-DISTRIBUTION_SIZE_EXPONENT (W - 1), W = pair_load: a wide
+#: distribution costs more in a small box (its large spheres span more of it: fewer cells, pairs through several
+#: images). Fitted to the LS slow-downs of the bidisperse 1:3, 1:5 and 1:10 mixtures at several N and checked on the
+#: other distributions (`benchmarks/cost_fit.py fit`, docs/algorithms.md §7.9).
+DISTRIBUTION_COEFFICIENT = 0.257
+DISTRIBUTION_SIZE_EXPONENT = 0.230
+#: Fraction of the summed per-rate LS costs that an MLS run needs at N = 1000, and the growth of its collisions per
+#: particle with N, (N / 1000)^MLS_SIZE_EXPONENT at every N: fitted to the mean MLS collisions of the reproduction
+#: ladder's searches from fast starts (N = 250, 500, 1000) and of the five N = 10^4 searches
+#: (`benchmarks/cost_fit.py fit`, docs/algorithms.md §7.9).
+MLS_PHASE_FRACTION = 0.633
+MLS_SIZE_EXPONENT = 0.554
 #: FB: iterations = FB_BASE + FB_PER_INVERSE_RATE / gamma, seconds per iteration = FB_SECONDS * N.
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
@@ -131,14 +136,16 @@ def collisions_per_second(n: int) -> float:
     return COLLISIONS_PER_SECOND * (max(n, 1000) / 1000.0) ** SPEED_EXPONENT
 
 
-def distribution_factor(load: float = 1.0) -> float:
-    """Slow-down of the event-driven engine for a size distribution of :func:`pair_load` W: equal spheres'
-    collisions per CPU second over the distribution's, 1 + DISTRIBUTION_COEFFICIENT (W - 1) (1 for equal spheres).
+def distribution_factor(load: float, n: int) -> float:
+    """Slow-down of the event-driven engine for a size distribution of :func:`pair_load` W at N spheres: equal
+    spheres' collisions per CPU second over the distribution's,
+    1 + DISTRIBUTION_COEFFICIENT (N / 1000)^-DISTRIBUTION_SIZE_EXPONENT (W - 1) (1 for equal spheres).
 
     The LS and MLS estimates keep equal spheres' collisions per particle: measured from phi = 0.58 at gamma = 1e-2,
     wide mixtures needed 0.37-1.05 of them (docs/algorithms.md §7.5), so for them the estimate errs long."""
     load = _positive("load", load)
-    return 1.0 + DISTRIBUTION_COEFFICIENT * max(load - 1.0, 0.0)
+    n = _check_n(n)
+    return 1.0 + DISTRIBUTION_COEFFICIENT * (n / 1000.0) ** -DISTRIBUTION_SIZE_EXPONENT * max(load - 1.0, 0.0)
 
 
 def ls_collisions_per_particle(rate: float) -> float:
@@ -162,7 +169,7 @@ def mls_collisions_per_particle(initial_rate: float = 10.0, decrease_factor: flo
     """Expected collisions per particle of one MLS run of N particles (paper defaults: 10 -> 1e-4, factor 2)."""
     n = _check_n(n)
     ladder = mls_rates(initial_rate, decrease_factor, final_rate)
-    size = (max(n, 1000) / 1000.0) ** MLS_SIZE_EXPONENT
+    size = (n / 1000.0) ** MLS_SIZE_EXPONENT
     return MLS_PHASE_FRACTION * sum(ls_collisions_per_particle(g) for g in ladder) * size
 
 
@@ -201,7 +208,7 @@ def cpu_seconds(stage: str, n: int, rate: float | None = None, *, initial_rate: 
     """
     _check_stage(stage)
     n = _check_n(n)
-    factor = distribution_factor(load)
+    factor = distribution_factor(load, n)
     if stage in ("ls", "fb"):
         require(rate is not None, "rate", rate, f"is required for stage {stage!r}")
     if stage == "ls":
