@@ -351,7 +351,7 @@ class LSEngine:
             horizon = min(t_list, t_target, t_limit)
             if need_init:
                 ed.init_events(s, t)
-            status, t = ed.run_events(s, t, target, count_collisions, horizon, counters, acc)
+            status, t = ed.run_events(s, t, target, count_collisions, horizon, counters, acc, True)
             if status == ed.WINDOW_DONE:
                 return t, False, False
             if status == ed.OVERFLOW:
