@@ -175,19 +175,17 @@ def test_copies_follow_every_change_of_a_row_and_a_list():
 def test_a_run_with_copies_takes_the_events_of_a_run_without(container, monkeypatch):
     """LS with the copies and without (run_events' ``copies``): bitwise the same run. A missed update of a copy (a
     collision's, a wall's or a local list update's) makes the long lists predict from stale rows, and the runs part."""
-    from spherejam.engines import event_driven as drv
-
     n = 1500
     start = poisson_packing(n, seed=1, psd="bidisperse:ratio=5,small=0.3,by=volume", container=container)
     start = run_ls(start, 1.0, seed=2, target_phi=0.5, progress_interval=1e9).packing
     original = ed.run_events
     seen = []
 
-    def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=True):
+    def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies):  # as the driver calls it
         seen.append((s.multi, int(np.sum(s.nnb > ed.LONG_LIST))))
         return original(s, t, target, count_collisions, t_horizon, counters, acc, use_copies)
 
-    monkeypatch.setattr(drv.ed, "run_events", run_events)
+    monkeypatch.setattr(ed, "run_events", run_events)
     runs = []
     for use_copies in (True, False):
         r = run_ls(start, 1e-2, seed=3, max_collisions=300 * n, progress_interval=1e9)
