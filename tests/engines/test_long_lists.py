@@ -1,11 +1,15 @@
 """The two-pass prediction of long neighbour lists (docs/algorithms.md §7.7) takes exactly the scalar loop's events:
 its branch-free bound never exceeds collision_delay, and _predict_long equals _predict_pairs run over the same list,
-including exclusion, pruning, availability and ties."""
+including exclusion, pruning, availability and ties, whether it gathers the rows from st or reads a contiguous copy.
+The copies (§7.8) follow every change of a row and of a list, and a run with them takes the events of a run without."""
 
 import numpy as np
 import pytest
 
+from spherejam.core.seeding import poisson_packing
+from spherejam.engines.event_driven import LSEngine
 from spherejam.engines.kernels import event_driven as ed
+from spherejam.engines.lubachevsky_stillinger import maxwell_velocities, run_ls
 
 
 def _bits(x):
@@ -89,7 +93,14 @@ def test_predict_long_is_the_scalar_loop(seed):
         exclude = int(order[rng.integers(m)]) if trial % 2 else -1
         best0 = t + (np.inf if trial % 3 == 0 else 1e-12 if trial % 4 == 1 else 10.0 ** rng.uniform(-6, -1))
         long = ed._predict_long(0, exclude, t, xi, yi, zi, vxi, vyi, vzi, st[0, 7], rho, gamma, best0, ed.SKIN, -1,
-                                st, ev_time, nbr, nnb, *geom)
+                                st, ev_time, nbr, nnb, *geom, st, -1)
+        # the same list read from a copy of its rows (in list order, at some offset of a larger array)
+        base = int(rng.integers(0, 5)) * m
+        rows = rng.random((base + m + 3, 8))
+        rows[base:base + m] = st[order]
+        copied = ed._predict_long(0, exclude, t, xi, yi, zi, vxi, vyi, vzi, st[0, 7], rho, gamma, best0, ed.SKIN, -1,
+                                  st, ev_time, nbr, nnb, *geom, rows, base)
+        assert copied[1:] == long[1:] and _bits(copied[0]) == _bits(long[0])
         # the scalar loop over the same list, in pieces short enough for it, carrying the running best
         best = (best0, ed.SKIN, -1)
         for k0 in range(0, m, ed.LONG_LIST):
@@ -101,3 +112,85 @@ def test_predict_long_is_the_scalar_loop(seed):
         assert long[1:] == best[1:] and _bits(long[0]) == _bits(best[0])
         accepted += best[1] == ed.COLLISION
     assert accepted > 5 and (seed % 2 == 1 or accepted < 40)  # both outcomes occur (overlaps: always accepted)
+
+
+def _wide_state(n, ratio, seed=0):
+    """An LS state of a bidisperse mixture 1 : ratio (30 % of the volume small) at phi ~ 0.45, its lists built:
+    large spheres with lists longer than LONG_LIST, single image."""
+    start = poisson_packing(n, seed=seed, psd=f"bidisperse:ratio={ratio},small=0.3,by=volume")
+    start = run_ls(start, 1.0, seed=seed, target_phi=0.45, progress_interval=1e9).packing
+    rng = np.random.default_rng(seed)
+    nominal = start.diameters / start.diameters.mean()
+    v = maxwell_velocities(n, 0.2, rng)
+    rho = start.diameters.mean() * 0.999
+    return LSEngine.start(start.positions, nominal, start.box, rho, v, 1e-2, 0.2)
+
+
+def test_copies_follow_every_change_of_a_row_and_a_list():
+    """long_copies, _refresh_copies and _relist_copies keep every copy equal to its row and in list order (checked by
+    copies_current, which a stale row or a missed list edit fails) through local list updates that move spheres
+    anywhere: lists shrink, grow past LONG_LIST and take a spare slot, and large spheres get new lists."""
+    engine = _wide_state(1500, 5.0)
+    s = engine.state
+    st, nbr, nnb = s.st, s.nbr, s.nnb
+    large = np.flatnonzero(st[:, 7] > 1.5 * st[:, 7].min())
+    assert not s.multi and 3 < np.sum(nnb > ed.LONG_LIST) < len(large)  # long lists, and lists just short of them
+    small = np.flatnonzero(st[:, 7] <= 1.5 * st[:, 7].min())
+    lc = ed.long_copies(st, nbr, nnb, True)
+    assert ed.copies_current(st, nbr, nnb, lc)
+    slotted0 = lc.slot >= 0
+    assert np.array_equal(slotted0, nnb > ed.LONG_LIST)
+    rng = np.random.default_rng(3)
+    n = len(st)
+    coords, shift, cells = np.empty(3, dtype=np.int64), np.empty(3), np.empty(27, dtype=np.int64)
+    moves = 0
+    for step in range(600):
+        # a row changes (a collision): stale until refreshed
+        j = int(nbr[large[rng.integers(len(large))], 0]) if step % 2 else int(rng.integers(n))
+        st[j, 3:6] = rng.normal(size=3)
+        st[j, 6] += 1e-3
+        if lc.rhead[j] >= 0:
+            assert not ed.copies_current(st, nbr, nnb, lc)  # the check sees a stale row
+        ed._refresh_copies(st, j, lc.rows, lc.rnext, lc.rhead)
+        assert ed.copies_current(st, nbr, nnb, lc)
+        # a local list update: a sphere (small, or now and then large) moves anywhere, or next to a large one
+        i = int(large[rng.integers(len(large))]) if step % 7 == 0 else int(small[rng.integers(len(small))])
+        if step % 3 == 0:
+            target = large[rng.integers(len(large))]
+            st[i, :3] = s.refs[target] + rng.normal(size=3) * st[target, 7] * 0.6
+        else:
+            st[i, :3] = rng.random(3) * s.lengths
+        if ed._rebuild_one(st, s.refs, i, s.lengths, s.half, s.periodic, s.lvl_ms, s.lvl_off, s.lvl_dmax, s.level,
+                           s.rho_list, s.skin, nbr, nnb, s.head, s.nxt, s.prv, s.cellof, s.scratch, coords, shift,
+                           cells):
+            ed._relist_copies(i, st, nbr, nnb, lc)
+            moves += 1
+        assert ed.copies_current(st, nbr, nnb, lc), step
+    grown = (lc.slot >= 0) & ~slotted0
+    assert moves > 500 and grown.any()  # lists crossed LONG_LIST and took spare slots
+    assert (nnb[lc.slot >= 0] <= ed.LONG_LIST).any()  # and some slotted lists shrank below it
+
+
+@pytest.mark.parametrize("container", [None, "slab:height=22"])
+def test_a_run_with_copies_takes_the_events_of_a_run_without(container, monkeypatch):
+    """LS with the copies and without (run_events' ``copies``): bitwise the same run. A missed update of a copy (a
+    collision's, a wall's or a local list update's) makes the long lists predict from stale rows, and the runs part."""
+    n = 1500
+    start = poisson_packing(n, seed=1, psd="bidisperse:ratio=5,small=0.3,by=volume", container=container)
+    start = run_ls(start, 1.0, seed=2, target_phi=0.5, progress_interval=1e9).packing
+    original = ed.run_events
+    seen = []
+
+    def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies):  # as the driver calls it
+        seen.append((s.multi, int(np.sum(s.nnb > ed.LONG_LIST))))
+        return original(s, t, target, count_collisions, t_horizon, counters, acc, use_copies)
+
+    monkeypatch.setattr(ed, "run_events", run_events)
+    runs = []
+    for use_copies in (True, False):
+        r = run_ls(start, 1e-2, seed=3, max_collisions=300 * n, progress_interval=1e9)
+        runs.append(r)
+    assert sum(not multi and long > 0 for multi, long in seen) >= len(seen) // 4  # the copies were used
+    a, b = runs
+    assert a.stats.collisions == b.stats.collisions and a.stats.collisions >= 300 * n
+    assert np.array_equal(a.packing.positions, b.packing.positions) and _bits(a.packing.phi) == _bits(b.packing.phi)

@@ -351,7 +351,8 @@ class LSEngine:
             horizon = min(t_list, t_target, t_limit)
             if need_init:
                 ed.init_events(s, t)
-            status, t = ed.run_events(s, t, target, count_collisions, horizon, counters, acc)
+            # copies of the long lists serve the single-image prediction only (docs/algorithms.md §7.8)
+            status, t = ed.run_events(s, t, target, count_collisions, horizon, counters, acc, not s.multi)
             if status == ed.WINDOW_DONE:
                 return t, False, False
             if status == ed.OVERFLOW:

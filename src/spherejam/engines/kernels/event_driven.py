@@ -822,10 +822,8 @@ def _frame_tuples(lengths, half, periodic, walls):
 def _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
                    nbr, nnb, lx, ly, lz, hx, hy, hz):
     """The neighbour loop of :func:`_predict` when every pair meets through its minimum image only: the earliest
-    collision of particle i (at xi, moving at vi, at time t) that beats ``best`` and is available."""
-    if nnb[i] > LONG_LIST:
-        return _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st,
-                             ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz)
+    collision of particle i (at xi, moving at vi, at time t) that beats ``best`` and is available. Lists longer
+    than :data:`LONG_LIST` go to :func:`_predict_long` (:func:`_predict` tests it once, outside the inlined copies)."""
     for kk in range(nnb[i]):
         j = nbr[i, kk]
         if j == exclude:
@@ -895,30 +893,48 @@ def delay_bound(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
 
 @njit(cache=True, error_model="numpy")  # numpy: delay_bound divides by b = 0 in lanes it does not keep
 def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
-                  nbr, nnb, lx, ly, lz, hx, hy, hz):
+                  nbr, nnb, lx, ly, lz, hx, hy, hz, rows, base):
     """:func:`_predict_pairs` for a long list, with the same result bit for bit, in two passes per block of
     :data:`_BLOCK` neighbours. The first gathers the neighbours' positions and velocities into contiguous rows on the
     stack and computes a lower bound of every collision delay (:func:`delay_bound`: no branch, vectorised); the second
     walks the block in list order with the running best and runs :func:`_predict_pairs`' own test only on the few
     neighbours whose bound beats it. A neighbour whose bound does not beat the running best cannot be accepted by
     the scalar loop (its time is not below the bound, and that loop accepts only times below the running best), so
-    both take the same events."""
+    both take the same events.
+
+    The neighbours' state rows are read from ``rows[base + k]`` for the list's k-th entry when ``base`` >= 0 (i's
+    :class:`LongCopies` block: contiguous, a stream instead of a gather, docs/algorithms.md §7.8), else from
+    ``st[nbr[i, k]]``; the copy holds the same numbers, so the same events follow."""
     work = carray(_stack_block(), (8, _BLOCK))
     low = work[7]
     m = nnb[i]
+    src = rows if base >= 0 else st
     for k0 in range(0, m, _BLOCK):
         k1 = min(m, k0 + _BLOCK)
-        for kk in range(k0, k1):  # gather: the rows are scattered, the arithmetic below runs on contiguous ones
-            j = nbr[i, kk]
-            dtj = t - st[j, 6]
-            q = kk - k0
-            work[0, q] = st[j, 0] + st[j, 3] * dtj - xi
-            work[1, q] = st[j, 1] + st[j, 4] * dtj - yi
-            work[2, q] = st[j, 2] + st[j, 5] * dtj - zi
-            work[3, q] = st[j, 3] - vxi
-            work[4, q] = st[j, 4] - vyi
-            work[5, q] = st[j, 5] - vzi
-            work[6, q] = 0.5 * (di + st[j, 7])
+        if base >= 0:
+            for kk in range(k0, k1):  # the copy: one contiguous stream, no index
+                r = base + kk
+                dtj = t - src[r, 6]
+                q = kk - k0
+                work[0, q] = src[r, 0] + src[r, 3] * dtj - xi
+                work[1, q] = src[r, 1] + src[r, 4] * dtj - yi
+                work[2, q] = src[r, 2] + src[r, 5] * dtj - zi
+                work[3, q] = src[r, 3] - vxi
+                work[4, q] = src[r, 4] - vyi
+                work[5, q] = src[r, 5] - vzi
+                work[6, q] = 0.5 * (di + src[r, 7])
+        else:
+            for kk in range(k0, k1):  # gather: the rows are scattered, the arithmetic below runs on contiguous ones
+                j = nbr[i, kk]
+                dtj = t - src[j, 6]
+                q = kk - k0
+                work[0, q] = src[j, 0] + src[j, 3] * dtj - xi
+                work[1, q] = src[j, 1] + src[j, 4] * dtj - yi
+                work[2, q] = src[j, 2] + src[j, 5] * dtj - zi
+                work[3, q] = src[j, 3] - vxi
+                work[4, q] = src[j, 4] - vyi
+                work[5, q] = src[j, 5] - vzi
+                work[6, q] = 0.5 * (di + src[j, 7])
         for q in range(k1 - k0):
             low[q] = delay_bound(fold(work[0, q], lx, hx), fold(work[1, q], ly, hy), fold(work[2, q], lz, hz),
                                  work[3, q], work[4, q], work[5, q], work[6, q], rho, gamma)
@@ -929,14 +945,15 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
                 j = nbr[i, kk]
                 if j == exclude:
                     continue
-                dtj = t - st[j, 6]
-                ux = st[j, 3] - vxi
-                uy = st[j, 4] - vyi
-                uz = st[j, 5] - vzi
-                rx = fold(st[j, 0] + st[j, 3] * dtj - xi, lx, hx)
-                ry = fold(st[j, 1] + st[j, 4] * dtj - yi, ly, hy)
-                rz = fold(st[j, 2] + st[j, 5] * dtj - zi, lz, hz)
-                sig = 0.5 * (di + st[j, 7])
+                r = base + kk if base >= 0 else j
+                dtj = t - src[r, 6]
+                ux = src[r, 3] - vxi
+                uy = src[r, 4] - vyi
+                uz = src[r, 5] - vzi
+                rx = fold(src[r, 0] + src[r, 3] * dtj - xi, lx, hx)
+                ry = fold(src[r, 1] + src[r, 4] * dtj - yi, ly, hy)
+                rz = fold(src[r, 2] + src[r, 5] * dtj - zi, lz, hz)
+                sig = 0.5 * (di + src[r, 7])
                 s2 = sig * sig
                 b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
                 a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
@@ -954,9 +971,192 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
     return best, best_type, best_j
 
 
+# --- contiguous copies of the long lists' neighbour rows (docs/algorithms.md §7.8) ---------------------------------
+# A list longer than LONG_LIST owns a slot s: rows[s * cap + k] is a copy of st[nbr[L, k]], in list order, kept equal
+# to it bit for bit. Each copied row is an entry e = s * cap + k; the entries holding sphere j form a doubly linked
+# list (rhead[j], rnext[e], rprev[e]; rown[e] = j), the reverse index through which a change of j's row reaches
+# every copy of it (a small sphere is listed by one to three large ones). The structure lives for one run_events
+# call: the caller's work between calls (thermostat, full rebuilds) changes rows and lists wholesale.
+
+
+class LongCopies(NamedTuple):
+    """The copies of one :func:`run_events` call; see the comment above. ``slot``: (N,) int32 slot of each sphere's
+    list or -1; ``owner``, ``slen``: (S,) the sphere owning each slot (-1: free) and the entries it holds; ``rows``:
+    (S cap, 8) float64; ``rown``, ``rnext``, ``rprev``: (S cap,) int32; ``rhead``: (N,) int32."""
+
+    slot: np.ndarray
+    owner: np.ndarray
+    slen: np.ndarray
+    rows: np.ndarray
+    rown: np.ndarray
+    rnext: np.ndarray
+    rprev: np.ndarray
+    rhead: np.ndarray
+
+
+@njit(cache=True, inline="always")
+def _link(e, j, rhead, rnext, rprev, rown):
+    h = rhead[j]
+    rnext[e] = h
+    rprev[e] = -1
+    if h >= 0:
+        rprev[h] = e
+    rhead[j] = e
+    rown[e] = j
+
+
+@njit(cache=True, inline="always")
+def _unlink(e, rhead, rnext, rprev, rown):
+    p = rprev[e]
+    q = rnext[e]
+    if p >= 0:
+        rnext[p] = q
+    else:
+        rhead[rown[e]] = q
+    if q >= 0:
+        rprev[q] = p
+
+
+@njit(cache=True, inline="always")
+def _refresh_copies(st, j, rows, rnext, rhead):
+    """Rewrite every copy of j's row (after a collision or a wall changed it). Nothing to do for a sphere no long
+    list holds: one load of rhead[j] (monodisperse runs never get further)."""
+    e = rhead[j]
+    while e >= 0:
+        for k in range(8):
+            rows[e, k] = st[j, k]
+        e = rnext[e]
+
+
+@njit(cache=True)
+def _fill_slot(s, L, st, nbr, nnb, lc):
+    """Copy L's whole list into slot s (empty) and link its entries."""
+    cap = nbr.shape[1]
+    base = s * cap
+    for k in range(nnb[L]):
+        e = base + k
+        j = nbr[L, k]
+        for c in range(8):
+            lc.rows[e, c] = st[j, c]
+        _link(e, j, lc.rhead, lc.rnext, lc.rprev, lc.rown)
+    lc.slen[s] = nnb[L]
+    lc.owner[s] = L
+    lc.slot[L] = s
+
+
+@njit(cache=True)
+def _take_slot(L, st, nbr, nnb, lc):
+    """Give L's list a free slot, if one is left (else its predictions gather from st, with the same events)."""
+    for s in range(lc.owner.shape[0]):
+        if lc.owner[s] < 0:
+            _fill_slot(s, L, st, nbr, nnb, lc)
+            return
+
+
+@njit(cache=True)
+def long_copies(st, nbr, nnb, enabled):
+    """The :class:`LongCopies` of the current lists: a slot for every list longer than :data:`LONG_LIST`, and half as
+    many again spare for lists that grow past it during the call (``enabled`` false: no slots, every long list is
+    gathered from st)."""
+    n = st.shape[0]
+    cap = nbr.shape[1]
+    count = 0
+    for i in range(n):
+        if nnb[i] > LONG_LIST:
+            count += 1
+    slots = count + count // 2 + (8 if count > 0 else 0) if enabled else 0
+    lc = LongCopies(np.full(n, -1, dtype=np.int32), np.full(slots, -1, dtype=np.int32),
+                    np.zeros(slots, dtype=np.int32), np.empty((slots * cap, 8)), np.empty(slots * cap, dtype=np.int32),
+                    np.empty(slots * cap, dtype=np.int32), np.empty(slots * cap, dtype=np.int32),
+                    np.full(n, -1, dtype=np.int32))
+    if slots > 0:
+        for i in range(n):
+            if nnb[i] > LONG_LIST:
+                _take_slot(i, st, nbr, nnb, lc)
+    return lc
+
+
+@njit(cache=True)
+def _relist_copies(i, st, nbr, nnb, lc):
+    """Mirror in the copies the local list update :func:`_rebuild_one` just made for particle i (its row and its
+    list changed; it left its old neighbours' lists, each by :func:`_remove_from_list`'s swap with the last entry,
+    and was appended to its new neighbours'). Runs on the copies' own bookkeeping (slen, the reverse index), which
+    still describe the lists before the update."""
+    cap = nbr.shape[1]
+    rows, rown, rnext, rprev, rhead, slen = lc.rows, lc.rown, lc.rnext, lc.rprev, lc.rhead, lc.slen
+    # i leaves every copied list it was in: the same swap with the last entry as in nbr
+    e = rhead[i]
+    while e >= 0:
+        after = rnext[e]
+        s = e // cap
+        _unlink(e, rhead, rnext, rprev, rown)
+        last = s * cap + slen[s] - 1
+        if e != last:
+            for c in range(8):
+                rows[e, c] = rows[last, c]
+            j = rown[last]
+            _unlink(last, rhead, rnext, rprev, rown)
+            _link(e, j, rhead, rnext, rprev, rown)
+        slen[s] -= 1
+        e = after
+    # i's own list is new
+    s = lc.slot[i]
+    if s >= 0:
+        for k in range(slen[s]):
+            _unlink(s * cap + k, rhead, rnext, rprev, rown)
+        _fill_slot(s, i, st, nbr, nnb, lc)
+    elif nnb[i] > LONG_LIST:
+        _take_slot(i, st, nbr, nnb, lc)
+    # i joins its new neighbours' lists at their end
+    for k in range(nnb[i]):
+        L = nbr[i, k]
+        s = lc.slot[L]
+        if s >= 0:
+            e = s * cap + slen[s]
+            for c in range(8):
+                rows[e, c] = st[i, c]
+            _link(e, i, rhead, rnext, rprev, rown)
+            slen[s] += 1
+        elif nnb[L] > LONG_LIST:
+            _take_slot(L, st, nbr, nnb, lc)
+
+
+@njit(cache=True)
+def copies_current(st, nbr, nnb, lc):
+    """Whether every copy equals its row of st bit for bit and follows its list (for tests)."""
+    cap = nbr.shape[1]
+    for L in range(st.shape[0]):
+        s = lc.slot[L]
+        if s < 0:
+            continue
+        if lc.owner[s] != L or lc.slen[s] != nnb[L]:
+            return False
+        for k in range(nnb[L]):
+            e = s * cap + k
+            if lc.rown[e] != nbr[L, k]:
+                return False
+            for c in range(8):
+                if lc.rows[e, c] != st[nbr[L, k], c]:
+                    return False
+    # the reverse index holds exactly the slots' entries
+    entries = 0
+    for j in range(st.shape[0]):
+        e = lc.rhead[j]
+        while e >= 0:
+            if lc.rown[e] != j or e % cap >= lc.slen[e // cap]:
+                return False
+            entries += 1
+            e = lc.rnext[e]
+    total = 0
+    for s in range(lc.owner.shape[0]):
+        total += lc.slen[s] if lc.owner[s] >= 0 else 0
+    return entries == total
+
+
 @njit(cache=True, inline="always")
 def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb,
-             geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap):
+             geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap, lslot,
+             lrows):
     """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
     are :class:`EventState`'s fields.
 
@@ -967,7 +1167,8 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
     some 100 words of array descriptors per prediction. Its callers unpack the state once, outside their loops: each
     field read from the tuple takes a reference to its array (an atomic increment and decrement), too slow for the
-    event loop (docs/algorithms.md §7.3).
+    event loop (docs/algorithms.md §7.3). ``lslot``, ``lrows``: :class:`LongCopies`' slot and rows (a list longer
+    than :data:`LONG_LIST` with a slot is read from its copy).
     """
     n = st.shape[0]
     lx, ly, lz, hx, hy, hz, cube = geom
@@ -989,8 +1190,14 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     best = skin_exit_delay(xi - refs[i, 0], yi - refs[i, 1], zi - refs[i, 2], vxi, vyi, vzi, 0.5 * skin) + t
     best_type = SKIN
     best_j = -1
-    for kk in range(nnb[i]):
-        _prefetch_row(st, nbr[i, kk])
+    # the list length is tested once here, not in each inlined copy of _predict_pairs' loop; -2: a short list, -1: a
+    # long one gathered from st, >= 0: a long one read from its contiguous copy (nothing to prefetch)
+    long_base = -2
+    if nnb[i] > LONG_LIST:
+        long_base = lslot[i] * nbr.shape[1] if lslot[i] >= 0 else -1
+    if long_base < 0:
+        for kk in range(nnb[i]):
+            _prefetch_row(st, nbr[i, kk])
     # before the pairs (an early wall event prunes them); not for a sphere whose walls are beyond its reach until
     # its skin event or the lists' horizon (radius <= rho_list D_i / 2): that wall event could never come first
     if has_walls and not walls_beyond(refs[i, 0], refs[i, 1], refs[i, 2],
@@ -1004,6 +1211,10 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
         best, best_type, best_j = _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho, best,
                                                   best_type, best_j, st, ev_time, nbr, nnb, lengths, half, periodic,
                                                   gamma, skin, rho_list)
+    elif long_base >= -1:
+        best, best_type, best_j = _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
+                                                best_type, best_j, st, ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz,
+                                                lrows, long_base)
     elif cube:
         # the periodic cube: one length and one half-length, in two registers instead of six
         best, best_type, best_j = _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
@@ -1044,21 +1255,25 @@ def init_events(s, t):
         ev_time[i] = t
         ev_type[i] = MOVE
         ev_partner[i] = -1
+    lslot = np.full(n, -1, dtype=np.int32)  # no copies: one prediction per sphere, a copy would cost what it saves
+    lrows = np.empty((0, 8))
     for i in range(n):
         _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                 nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False)
+                 nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False,
+                 lslot, lrows)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
 @njit(cache=True)
-def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
+def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=True):
     """Process the events of state ``s`` from time t until ``target`` events (or collisions) are counted in
     ``counters``.
 
     ``acc[A_VIRIAL]`` accumulates the collision virial sum_c |r_ij| (v_i - v_j).n_ij (pre-collision, growth
     excluded) and, for a wall collision, r_i times the impulse 2 v_n the wall gives (v_n the centre's speed towards
     it); ``acc[A_WALL_IMPULSE]`` the walls' impulses alone. Returns ``(status, t)``. On ``WINDOW_DONE`` and
-    ``HORIZON`` every particle is synchronised to the returned t.
+    ``HORIZON`` every particle is synchronised to the returned t. ``copies``: keep contiguous copies of the long
+    lists' rows (:func:`long_copies`; false only to compare against, in tests: the same events either way).
     """
     # every field unpacked once, outside the loop (see _predict)
     st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
@@ -1073,6 +1288,8 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
     shift = np.empty(3)
     cells = np.empty(27, dtype=np.int64)
     normal = np.empty(3)
+    lc = long_copies(st, nbr, nnb, copies)
+    lslot, lrows, lnext, lhead = lc.slot, lc.rows, lc.rnext, lc.rhead
     while True:
         i = heap[0]
         te = hkey[0]
@@ -1087,16 +1304,19 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
             if not _rebuild_one(st, refs, i, lengths, half, periodic, lvl_ms, lvl_off, lvl_dmax, level, rho_list, skin,
                                 nbr, nnb, head, nxt, prv, cellof, scratch, coords, shift, cells):
                 return OVERFLOW, t
+            if lc.owner.shape[0] > 0:
+                _relist_copies(i, st, nbr, nnb, lc)
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
             j = ev_partner[i]
-            for kk in range(nnb[j]):  # j's neighbours load while i's prediction runs
-                _prefetch_row(st, nbr[j, kk])
+            if nnb[j] <= LONG_LIST or lslot[j] < 0:  # j's neighbours load while i's prediction runs
+                for kk in range(nnb[j]):
+                    _prefetch_row(st, nbr[j, kk])
             _sync(st, i, t)
             _sync(st, j, t)
             rx = fold(st[j, 0] - st[i, 0], lx, hx)
@@ -1139,12 +1359,14 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
+            _refresh_copies(st, i, lrows, lnext, lhead)  # both were synchronised and maybe reflected
+            _refresh_copies(st, j, lrows, lnext, lhead)
             _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
             _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
         elif kind == WALL:
             t = te
             _sync(st, i, t)
@@ -1163,14 +1385,15 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc):
                 counters[C_WALL] += 1
             else:
                 counters[C_NULL] += 1
+            _refresh_copies(st, i, lrows, lnext, lhead)
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
         else:
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
