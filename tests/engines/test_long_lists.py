@@ -179,15 +179,15 @@ def test_a_run_with_copies_takes_the_events_of_a_run_without(container, monkeypa
     start = poisson_packing(n, seed=1, psd="bidisperse:ratio=5,small=0.3,by=volume", container=container)
     start = run_ls(start, 1.0, seed=2, target_phi=0.5, progress_interval=1e9).packing
     original = ed.run_events
-    seen = []
+    seen, mode = [], {}
 
     def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies):  # as the driver calls it
         seen.append((s.multi, int(np.sum(s.nnb > ed.LONG_LIST))))
-        return original(s, t, target, count_collisions, t_horizon, counters, acc, use_copies)
+        return original(s, t, target, count_collisions, t_horizon, counters, acc, mode["copies"])
 
     monkeypatch.setattr(ed, "run_events", run_events)
     runs = []
-    for use_copies in (True, False):
+    for mode["copies"] in (True, False):
         r = run_ls(start, 1e-2, seed=3, max_collisions=300 * n, progress_interval=1e9)
         runs.append(r)
     assert sum(not multi and long > 0 for multi, long in seen) >= len(seen) // 4  # the copies were used
