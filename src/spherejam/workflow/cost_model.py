@@ -83,11 +83,11 @@ CALIPPSO_LPS_EXPONENT = 0.96
 CALIPPSO_LP_SECONDS = 0.52
 CALIPPSO_EXPONENT = 2.78
 #: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
-#: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 28 of the same N = 1000 MLS outputs
-#: (223 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
+#: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 29 of the same N = 1000 MLS outputs
+#: (268 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
 #: interior steps measured at N = 4096 and 10^4. Fitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
-CALIPPSO_INTERIOR_LP_SECONDS = 0.816
-CALIPPSO_INTERIOR_EXPONENT = 1.786
+CALIPPSO_INTERIOR_LP_SECONDS = 0.787
+CALIPPSO_INTERIOR_EXPONENT = 1.799
 #: Seconds per particle of the structure analysis (contacts, Voronoi, Q6), generous.
 ANALYZE_SECONDS = 1e-3
 #: Python, numba cache load and file I/O of one job, seconds (the first run on a node compiles: ~1 min).
