@@ -24,9 +24,12 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
 - ``ls4096_p1e5``, ``ls4096_p1e12``: the same two LS kinds (gamma = 1e-3, sigma = 0, p = 1e5 and 1e12) at N = 4096,
   where the LP path's default changes (docs/calippso.md §10.11); ``ls512_p1e12`` the p = 1e12 kind at N = 512, whose
   2 x 2 x 2 tiling (``bench_calippso.py --tile 2``) is an N = 4096 input made in minutes;
-- ``mls10000_p1e12_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
-  (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_p1e12_s0``. Hours of CPU; its MLS run
-  checkpoints beside the file as well.
+- ``mls10000_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
+  (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_rate0.5_s0``, a fast LS output (gamma = 0.5,
+  p = 1e12), the kind of start whose closest jammed state MLS searches for. Hours of CPU; its MLS run checkpoints
+  beside the file as well. (The earlier ``mls10000_p1e12_s0`` started from ``ls10000_p1e12_s0``: a slowly
+  compressed output that MLS finds jammed in its first window and returns unchanged, so it was that LS output again,
+  docs/calippso.md §10.12.)
 """
 
 from __future__ import annotations
@@ -59,9 +62,11 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     "ls4096_p1e12": (4096, 0.0, 1e-3, 1e12, 1),
     # tiled 2 x 2 x 2 (bench_calippso.py --tile 2): an N = 4096 input in minutes, where ls4096_p1e12 takes an hour
     "ls512_p1e12": (512, 0.0, 1e-3, 1e12, 1),
+    # the MLS fixture's start: fast LS, far from its closest jammed state (the parity starts, docs/mls_parity.md §6)
+    "ls10000_rate0.5_s0": (10_000, 0.0, 0.5, 1e12, 1),
 }
 #: name -> the LS fixture its MLS search starts from (the paper's MLS parameters, the workflow's defaults)
-MLS_FIXTURES: dict[str, str] = {"mls10000_p1e12_s0": "ls10000_p1e12_s0"}
+MLS_FIXTURES: dict[str, str] = {"mls10000_s0": "ls10000_rate0.5_s0"}
 DEFAULT_DIR = Path(__file__).resolve().parent / "fixtures"
 
 
