@@ -24,7 +24,6 @@ Issue 47 (where the time goes at wide size ratios; docs/algorithms.md §7.5), th
     python benchmarks/bench_ls.py counts --n 10000 --repeats 0 --jobs 6 --out n10000.jsonl
     python benchmarks/bench_ls.py counts --n 1000 --extra --repeats 3 --jobs 3 --out n1000.jsonl
     python benchmarks/bench_ls.py counts-table n10000.jsonl        # the Markdown table of the docs
-    python benchmarks/bench_ls.py counts --exact ...                # per-event counts (a copy of the event loop)
 
 ``before-after`` runs each case alternately with the baseline's package and this one (``--repeats`` times) and prints
 the ratio of collisions per CPU second (each process's own CPU time: the machine is shared); ``wide`` prints each
@@ -47,11 +46,8 @@ import numpy as np
 
 from numba import njit
 
-from spherejam.core.neighbours import axis_cell, fold
 from spherejam.core.seeding import poisson_packing
 from spherejam.engines.kernels import event_driven as ed
-from spherejam.engines.kernels.event_driven import (_predict, _prefetch_row, _rebuild_one, _stencil_of, _sync, _wrap,
-                                                    image_collision)
 from spherejam.engines.lubachevsky_stillinger import run_ls
 
 RATE = 1e-2
@@ -256,11 +252,9 @@ def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE
 
 
 # --- issue 47: where the time goes at wide ratios (counts) ----------------------------------------------------
-# The kernel counts events by kind only. The per-event figures (pair tests, spheres scanned, by size class) come
-# from a copy of the kernel's event loop below that calls the kernel's own inlined steps (_predict, _rebuild_one,
-# ...) in the same order and adds counters; LSEngine runs it in place of ed.run_events in the counting process
-# only. It takes exactly the same events as the kernel: ``counts`` checks that its phi and collisions equal the
-# timed, uninstrumented run's. If the kernel's loop changes, this copy must follow it (or the check fails).
+# The kernel counts events by kind only; the per-collision pair tests and scans are estimated from the engine state
+# sampled at every kernel call (count_figures). A per-event counting copy of the event loop (f7b5aa5) measured the
+# exact figures of docs/algorithms.md §7.5 once; it was removed when it had drifted from the kernel.
 
 #: Columns of the per-class counter array (rows: size classes, octaves of D / D_min).
 K_COLL, K_NULL, K_PRED_COLL, K_TESTS_COLL, K_PRED_MOVE, K_TESTS_MOVE, K_PRED_SKIN, K_TESTS_SKIN, K_SCAN_SKIN, \
@@ -282,131 +276,19 @@ def _class_of_rows(st, dmin):
     return out
 
 
-@njit(cache=True)
-def _run_counted(s, t, target, count_collisions, t_horizon, counters, acc, k, pairs, dmin, big):
-    """ed.run_events with counters: ``k[class, K_*]`` and ``pairs[number of large spheres in the pair]``."""
-    st, refs, nbr, nnb, head, nxt, prv, cellof = s.st, s.refs, s.nbr, s.nnb, s.head, s.nxt, s.prv, s.cellof
-    ev_time, ev_type, ev_partner, heap, hpos, hkey = s.ev_time, s.ev_type, s.ev_partner, s.heap, s.hpos, s.hkey
-    scratch, box, m, rho0, gamma, rho_list, skin, multi = s.scratch, s.box, s.m, s.rho0, s.gamma, s.rho_list, \
-        s.skin, s.multi
-    half = 0.5 * box
-    coords = np.empty(3, dtype=np.int64)
-    shift = np.empty(3)
-    cells = np.empty(27, dtype=np.int64)
-    while True:
-        i = heap[0]
-        te = hkey[0]
-        if te > t_horizon:
-            ed.sync_all(st, t_horizon)
-            return ed.HORIZON, t_horizon
-        if not te >= t:
-            return ed.INCONSISTENT, t
-        kind = ev_type[i]
-        ci = _size_class(st[i, 7], dmin)
-        if kind == ed.SKIN:
-            _sync(st, i, te)
-            # counted before the update: the stencil it scans, and the positions it scans in the old neighbours'
-            # lists to drop i (what _rebuild_one does next)
-            coords[0] = axis_cell(_wrap(st[i, 0], box), box, m)
-            coords[1] = axis_cell(_wrap(st[i, 1], box), box, m)
-            coords[2] = axis_cell(_wrap(st[i, 2], box), box, m)
-            ncells = _stencil_of(coords, box, m, cells, shift)
-            scanned = 0
-            for o in range(ncells):
-                j = head[cells[o]]
-                while j >= 0:
-                    scanned += 1
-                    j = nxt[j]
-            edits = 0
-            for q in range(nnb[i]):
-                j = nbr[i, q]
-                for p in range(nnb[j]):
-                    edits += 1
-                    if nbr[j, p] == i:
-                        break
-            if not _rebuild_one(st, refs, i, box, m, rho_list, skin, nbr, nnb, head, nxt, prv, cellof, scratch,
-                                coords, shift, cells):
-                return ed.OVERFLOW, t
-            t = te
-            k[ci, K_PRED_SKIN] += 1
-            k[ci, K_TESTS_SKIN] += nnb[i]
-            k[ci, K_SCAN_SKIN] += scanned
-            k[ci, K_EDIT_SKIN] += edits
-            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
-            counters[ed.C_SKIN] += 1
-        elif kind == ed.COLLISION:
-            t = te
-            j = ev_partner[i]
-            cj = _size_class(st[j, 7], dmin)
-            for kk in range(nnb[j]):
-                _prefetch_row(st, nbr[j, kk])
-            _sync(st, i, t)
-            _sync(st, j, t)
-            rx = fold(st[j, 0] - st[i, 0], box, half)
-            ry = fold(st[j, 1] - st[i, 1], box, half)
-            rz = fold(st[j, 2] - st[i, 2], box, half)
-            image = ed.MINIMUM_IMAGE
-            if multi:
-                sig = 0.5 * (st[i, 7] + st[j, 7])
-                _, image = image_collision(rx, ry, rz, st[j, 3] - st[i, 3], st[j, 4] - st[i, 4],
-                                           st[j, 5] - st[i, 5], sig, rho0 + gamma * t, gamma, box,
-                                           2.0 * sig * (rho0 + gamma * t), -1)
-                rx += (image % 3 - 1) * box
-                ry += (image // 3 % 3 - 1) * box
-                rz += (image // 9 - 1) * box
-            r = np.sqrt(rx * rx + ry * ry + rz * rz)
-            nx = rx / r
-            ny = ry / r
-            nz = rz / r
-            g = gamma * 0.5 * (st[i, 7] + st[j, 7])
-            vin = st[i, 3] * nx + st[i, 4] * ny + st[i, 5] * nz
-            vjn = st[j, 3] * nx + st[j, 4] * ny + st[j, 5] * nz
-            w = vjn - vin
-            if w < g:
-                dv = vjn - vin - g
-                st[i, 3] += dv * nx
-                st[i, 4] += dv * ny
-                st[i, 5] += dv * nz
-                st[j, 3] -= dv * nx
-                st[j, 4] -= dv * ny
-                st[j, 5] -= dv * nz
-                acc[0] += (vin - vjn) * r
-                counters[ed.C_COLLISIONS] += 1
-                k[ci, K_COLL] += 1
-                k[cj, K_COLL] += 1
-                pairs[int(st[i, 7] >= big) + int(st[j, 7] >= big)] += 1
-            else:
-                counters[ed.C_NULL] += 1
-                k[ci, K_NULL] += 1
-                k[cj, K_NULL] += 1
-            k[ci, K_PRED_COLL] += 1
-            k[ci, K_TESTS_COLL] += nnb[i]
-            k[cj, K_PRED_COLL] += 1
-            k[cj, K_TESTS_COLL] += nnb[j]
-            _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
-            _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
-        else:
-            t = te
-            k[ci, K_PRED_MOVE] += 1
-            k[ci, K_TESTS_MOVE] += nnb[i]
-            _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
-                     nbr, nnb, box, rho0, gamma, skin, rho_list, multi, True)
-            counters[ed.C_MOVES] += 1
-        counters[ed.C_EVENTS] += 1
-        _prefetch_row(nbr, heap[0])
-        done = counters[ed.C_COLLISIONS] if count_collisions else counters[ed.C_EVENTS]
-        if done >= target:
-            ed.sync_all(st, t)
-            return ed.WINDOW_DONE, t
+def _cells_per_side(s) -> int:
+    """Cells per side of a single-level cubic grid, else -1 (levels or a non-cubic frame: no 3x3x3 stencil
+    estimate)."""
+    ms = s.lvl_ms
+    return int(ms[0, 0]) if len(ms) == 1 and (ms[0] == ms[0, 0]).all() else -1
 
 
 def _stencil_occupancy(cellof: np.ndarray, m: int) -> np.ndarray:
-    """Spheres in the 3x3x3 cell stencil of each sphere's cell (all N when m < 3: one cell): what a skin event of
-    that sphere scans."""
+    """Spheres in the 3x3x3 cell stencil of each sphere's cell (all N when m < 3: one cell; NaN when m < 0: a
+    levelled or non-cubic grid): what a skin event of that sphere scans."""
     n = len(cellof)
+    if m < 0:
+        return np.full(n, np.nan)
     if m < 3:
         return np.full(n, n)
     grid = np.bincount(cellof, minlength=m**3).reshape(m, m, m)  # index x + m y + m^2 z -> [z, y, x]
@@ -418,18 +300,15 @@ def _stencil_occupancy(cellof: np.ndarray, m: int) -> np.ndarray:
     return total.reshape(-1)[cellof]
 
 
-def count_case(n: int, dist: str, rate: float = RATE, exact: bool = False) -> dict:
+def count_case(n: int, dist: str, rate: float = RATE) -> dict:
     """The LS run of :func:`case` (same start, seed and rate) with its engine state sampled at every kernel call:
     list lengths by size class (octaves of D / D_min), cells per side, stencil occupancy, and the kernel's event
-    counters of each call. ``exact``: through the counting copy of the event loop (:func:`_run_counted`), which
-    counts pair tests, re-predictions and scans per event and per class, and collisions per class; otherwise those
-    are estimated from the samples (see :func:`print_counts`)."""
+    counters of each call; pair tests and scans are estimated from the samples (see :func:`count_figures`)."""
     start = wide_start(n, dist)
     nominal = start.diameters / start.diameters.mean()
     dmin, dmax = float(nominal.min()), float(nominal.max())
     big = float(np.sqrt(dmin * dmax)) * (1.0 - 1e-9)  # "large": above the geometric middle of the size range
     k = np.zeros((N_CLASSES, N_K), dtype=np.int64)
-    pairs = np.zeros(3, dtype=np.int64)
     grid: dict[int, int] = {}  # cells per side -> kernel calls
     # per kernel call: (collisions, moves, skin events, mean list per class weighted by the estimated collision
     # share, mean list of all spheres, mean stencil occupancy)
@@ -445,21 +324,19 @@ def count_case(n: int, dist: str, rate: float = RATE, exact: bool = False) -> di
         k[:, K_TESTS_INIT] += np.bincount(cls, weights=s.nnb, minlength=N_CLASSES).astype(np.int64)
         original_init(s, t)
 
-    def run_events_counted(s, t, target, count_collisions, t_horizon, counters, acc):
+    def run_events_counted(s, t, target, count_collisions, t_horizon, counters, acc, copies):
         cls = _class_of_rows(s.st, dmin)
         nnb = s.nnb.astype(float)
         k[:, K_LIST_SUM] += np.bincount(cls, weights=nnb, minlength=N_CLASSES).astype(np.int64)
         k[:, K_LIST_SAMPLES] += np.bincount(cls, minlength=N_CLASSES)
-        grid[s.m] = grid.get(s.m, 0) + 1
+        side = _cells_per_side(s)
+        grid[side] = grid.get(side, 0) + 1
         before = counters.copy()
-        if exact:
-            out = _run_counted(s, t, target, count_collisions, t_horizon, counters, acc, k, pairs, dmin, big)
-        else:
-            out = original_run(s, t, target, count_collisions, t_horizon, counters, acc)
+        out = original_run(s, t, target, count_collisions, t_horizon, counters, acc, copies)
         delta = counters - before
         sh = share[s.perm]  # rows are renumbered in cell order: row r is input sphere perm[r]
         calls.append((int(delta[ed.C_COLLISIONS]), int(delta[ed.C_MOVES]), int(delta[ed.C_SKIN]),
-                      float(np.sum(sh * nnb)), float(nnb.mean()), float(_stencil_occupancy(s.cellof, s.m).mean())))
+                      float(np.sum(sh * nnb)), float(nnb.mean()), float(_stencil_occupancy(s.cellof, side).mean())))
         return out
 
     ed.init_events, ed.run_events = init_counted, run_events_counted
@@ -476,12 +353,12 @@ def count_case(n: int, dist: str, rate: float = RATE, exact: bool = False) -> di
     small = nominal[nominal < big]
     pair_sum = 2.0 * len(d) * np.sum(d**2) + 2.0 * d.sum() ** 2  # sum over ordered pairs of (D_i + D_j)^2
     small_sum = 2.0 * len(small) * np.sum(small**2) + 2.0 * small.sum() ** 2
-    return {"n": n, "dist": dist, "exact": exact, "phi": r.packing.phi, "collisions": c["collisions"],
+    return {"n": n, "dist": dist, "phi": r.packing.phi, "collisions": c["collisions"],
             "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
             "events": c["events"], "stats": {key: v for key, v in c.items() if isinstance(v, (int, float))},
             "cpu_counting": cpu, "d_ratio": dmax / dmin, "large_from": big / dmin,
             "spheres_per_class": counts.tolist(), "share_estimate": share_by_class.tolist(),
-            "large_share_estimate": 1.0 - small_sum / pair_sum, "k": k.tolist(), "pairs_by_large": pairs.tolist(),
+            "large_share_estimate": 1.0 - small_sum / pair_sum, "k": k.tolist(),
             "cells_per_side": grid, "calls": calls}
 
 
@@ -491,10 +368,10 @@ def _per(a: float, b: float) -> str:
 
 def count_figures(c: dict) -> dict:
     """Per collision: pair tests by cause, re-predictions by cause, spheres scanned by skin events, and the share of
-    collisions with a large sphere. Exact (counted per event) if the run was ``exact``; else the re-predictions
-    are the kernel's counters (exact) and the pair tests and scans are estimated from the state sampled at each
-    kernel call: a collision re-predicts both partners, weighted by the kinetic estimate of each sphere's collision
-    share (rate_i ~ sum_j (D_i + D_j)^2, equal masses), a lost partner likewise, a skin exit any sphere alike."""
+    collisions with a large sphere. The re-predictions are the kernel's counters (exact); the pair tests and scans
+    are estimated from the state sampled at each kernel call: a collision re-predicts both partners, weighted by
+    the kinetic estimate of each sphere's collision share (rate_i ~ sum_j (D_i + D_j)^2, equal masses), a lost
+    partner likewise, a skin exit any sphere alike."""
     k = np.array(c["k"], dtype=float)
     tot = k.sum(axis=0)
     coll = c["collisions"]
@@ -502,16 +379,9 @@ def count_figures(c: dict) -> dict:
     ccoll, cmove, cskin, wlist, mlist, occ = calls.T
     f = {"collisions": coll, "moves": cmove.sum() / coll, "skin": cskin.sum() / coll,
          "tests_init": tot[K_TESTS_INIT] / coll}
-    if c["exact"]:
-        f.update(tests_coll=tot[K_TESTS_COLL] / coll, tests_move=tot[K_TESTS_MOVE] / coll,
-                 tests_skin=tot[K_TESTS_SKIN] / coll, scan_per_skin=tot[K_SCAN_SKIN] / max(tot[K_PRED_SKIN], 1),
-                 edits_per_skin=tot[K_EDIT_SKIN] / max(tot[K_PRED_SKIN], 1),
-                 large=(c["pairs_by_large"][1] + c["pairs_by_large"][2]) / coll,
-                 coll_share=(k[:, K_COLL] / (2 * coll)).tolist())
-    else:
-        f.update(tests_coll=2 * np.sum(ccoll * wlist) / coll, tests_move=np.sum(cmove * wlist) / coll,
-                 tests_skin=np.sum(cskin * mlist) / coll, scan_per_skin=np.sum(cskin * occ) / max(cskin.sum(), 1),
-                 edits_per_skin=float("nan"), large=c["large_share_estimate"], coll_share=c["share_estimate"])
+    f.update(tests_coll=2 * np.sum(ccoll * wlist) / coll, tests_move=np.sum(cmove * wlist) / coll,
+             tests_skin=np.sum(cskin * mlist) / coll, scan_per_skin=np.sum(cskin * occ) / max(cskin.sum(), 1),
+             edits_per_skin=float("nan"), large=c["large_share_estimate"], coll_share=c["share_estimate"])
     if c["d_ratio"] < 1.0 + 1e-9:
         f["large"] = float("nan")  # equal spheres: no large ones
     f["tests"] = f["tests_coll"] + f["tests_move"] + f["tests_skin"] + f["tests_init"]
@@ -523,7 +393,7 @@ def count_figures(c: dict) -> dict:
 def print_counts(t: dict, c: dict, mono_rate: float, mono_cpp: float) -> None:
     """The figures of one distribution: speed against mono, then the counts per collision."""
     f = count_figures(c)
-    how = "counted" if c["exact"] else "estimated"
+    how = "estimated"
     cpp = t["collisions"] / t["n"]
     print(f"{c['dist']}: d_max/d_min={c['d_ratio']:.1f} phi={t['phi']:.5f} collisions={t['collisions']:,} "
           f"({cpp:.0f} per sphere, {cpp / mono_cpp:.2f} of mono) cpu={t['cpu']:.1f}s "
@@ -567,17 +437,16 @@ def counts_table(path: str) -> None:
               f"{f['tests']:.1f} | {lists[0]:.1f} / {lists[-1]:.1f} | {large} |")
 
 
-def run_count_case(n: int, dist: str, exact: bool = False) -> dict:
-    out = subprocess.run([sys.executable, __file__, "count-case", "--n", str(n), "--dist", dist]
-                         + (["--exact"] if exact else []),
+def run_count_case(n: int, dist: str) -> dict:
+    out = subprocess.run([sys.executable, __file__, "count-case", "--n", str(n), "--dist", dist],
                          capture_output=True, text=True, check=True, preexec_fn=_own_session)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def counts(n: int, dists, repeats: int, out: str | None, jobs: int, exact: bool) -> None:
+def counts(n: int, dists, repeats: int, out: str | None, jobs: int) -> None:
     """Issue 47: per distribution, the timed run (``repeats`` times, each in a fresh process) and the counting run,
     ``jobs`` processes at a time (each in a low-priority session of its own); the rate is the best of the timed runs
-    and the sampled one (not an ``exact`` one), against the first distribution's of this invocation; all figures as
+    and the sampled one, against the first distribution's of this invocation; all figures as
     JSON lines to ``out``."""
     from concurrent.futures import ThreadPoolExecutor
 
@@ -586,7 +455,7 @@ def counts(n: int, dists, repeats: int, out: str | None, jobs: int, exact: bool)
         # repeats interleaved over the distributions, so that drifts of the machine's load hit them alike
         timed = [(dist, pool.submit(run_case, None, n, dist, RATE, isolated=True))
                  for _ in range(repeats) for dist in dists]
-        counted = {dist: pool.submit(run_count_case, n, dist, exact) for dist in dists}
+        counted = {dist: pool.submit(run_count_case, n, dist) for dist in dists}
         best: dict[str, dict] = {}
         for dist, f in timed:
             b = f.result()
@@ -596,7 +465,7 @@ def counts(n: int, dists, repeats: int, out: str | None, jobs: int, exact: bool)
         counted = {dist: f.result() for dist, f in counted.items()}
         for dist, c in counted.items():
             # the sampled run is the same LS run (a few numpy reductions per kernel call): a further repeat
-            if not c["exact"] and (dist not in best or c["collisions"] / c["cpu_counting"] > best[dist]["per_s"]):
+            if dist not in best or c["collisions"] / c["cpu_counting"] > best[dist]["per_s"]:
                 best[dist] = {"n": n, "dist": dist, "rate": RATE, "phi": c["phi"], "stop": c["stats"]["stop_reason"]
                               if "stop_reason" in c["stats"] else "", "collisions": c["collisions"],
                               "wall": float("nan"), "cpu": c["cpu_counting"],
@@ -641,15 +510,14 @@ def main() -> None:
         ap.add_argument("--extra", action="store_true", help="counts: also the cost model's further rows")
         ap.add_argument("--out", default=None, help="counts: append each distribution's figures as JSON here")
         ap.add_argument("--jobs", type=int, default=1, help="counts: cases run at once")
-        ap.add_argument("--exact", action="store_true", help="counts: count per event (a copy of the event loop)")
         a = ap.parse_args()
         if a.mode == "case":
             print(json.dumps(case(a.n, a.dist, a.rate, not a.no_prepare, a.max_wall)))
         elif a.mode == "count-case":
-            print(json.dumps(count_case(a.n, a.dist, a.rate, a.exact)))
+            print(json.dumps(count_case(a.n, a.dist, a.rate)))
         elif a.mode == "counts":
             dists = a.dists or list(COUNTED) + (list(EXTRA) if a.extra else [])
-            counts(a.n, dists, a.repeats, a.out, a.jobs, a.exact)
+            counts(a.n, dists, a.repeats, a.out, a.jobs)
         elif a.mode == "before-after":
             before_after(a.baseline_src, a.sizes or [1000, 10000], a.sigmas, a.repeats)
         elif a.mode == "wide":

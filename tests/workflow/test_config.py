@@ -40,9 +40,8 @@ def test_calippso_interior_steps_forces_the_lp_path_and_its_price(tmp_path, caps
 
     import yaml
 
-    from spherejam.cli import main
     from spherejam.core.calippso_path import interior_steps_at
-    from spherejam.workflow.config import check_config, validate_config
+    from spherejam.workflow.config import validate_config
     from spherejam.workflow.cost_model import plan
     from spherejam.workflow.experiment import Experiment
 
@@ -59,16 +58,27 @@ def test_calippso_interior_steps_forces_the_lp_path_and_its_price(tmp_path, caps
     # tiny's N is below the threshold: the default prices the vertex path, a forced path its own
     assert not interior_steps_at(max(exp.sizes))
     assert hours[None] == pytest.approx(hours[False]) and hours[True] != pytest.approx(hours[False])
-    for bad in ("maybe", 1, 0.5):
-        config["calippso"]["interior_steps"] = bad
+    _bad_calippso_values_are_one_line(config, "interior_steps", ("maybe", 1, 0.5), schema, tmp_path, capsys)
+
+
+def _bad_calippso_values_are_one_line(config, field, bads, schema, tmp_path, capsys):
+    """Each bad value of calippso.<field>: one line naming the field from the schema and from check_config, and
+    exit 2 with one line on stderr from `spherejam cost`."""
+    import yaml
+
+    from spherejam.cli import main
+    from spherejam.workflow.config import check_config, validate_config
+
+    for bad in bads:
+        config["calippso"][field] = bad
         for check in (lambda c: validate_config(c, schema), check_config):
-            with pytest.raises(InputError, match=r"calippso\.interior_steps=") as info:
+            with pytest.raises(InputError, match=rf"calippso\.{field}=") as info:
                 check(yaml.safe_load(yaml.safe_dump(config)))
             assert "\n" not in str(info.value)
         (tmp_path / "bad.yaml").write_text(yaml.safe_dump(config))
         assert main(["cost", str(tmp_path / "bad.yaml")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and "calippso.interior_steps" in err[0]
+        assert len(err) == 1 and f"calippso.{field}" in err[0]
 
 
 def test_calippso_per_cell_certifies_a_fixed_sample_and_prices_only_it(tmp_path, capsys):
@@ -79,8 +89,7 @@ def test_calippso_per_cell_certifies_a_fixed_sample_and_prices_only_it(tmp_path,
 
     import yaml
 
-    from spherejam.cli import main
-    from spherejam.workflow.config import check_config, validate_config
+    from spherejam.workflow.config import validate_config
     from spherejam.workflow.cost_model import plan
     from spherejam.workflow.experiment import Experiment
 
@@ -105,13 +114,4 @@ def test_calippso_per_cell_certifies_a_fixed_sample_and_prices_only_it(tmp_path,
     assert full["calippso"]["jobs"] == len(every.runs()) and part["calippso"]["jobs"] == len(sample)
     assert part["calippso"]["cpu_hours"] == pytest.approx(full["calippso"]["cpu_hours"] * len(sample)
                                                           / len(every.runs()))
-    for bad in (0, 2.5, "two", -1):
-        config["calippso"]["per_cell"] = bad
-        for check in (lambda c: validate_config(c, schema), check_config):
-            with pytest.raises(InputError, match=r"calippso\.per_cell=") as info:
-                check(yaml.safe_load(yaml.safe_dump(config)))
-            assert "\n" not in str(info.value)
-        (tmp_path / "bad.yaml").write_text(yaml.safe_dump(config))
-        assert main(["cost", str(tmp_path / "bad.yaml")]) == 2
-        err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and "calippso.per_cell" in err[0]
+    _bad_calippso_values_are_one_line(config, "per_cell", (0, 2.5, "two", -1), schema, tmp_path, capsys)
