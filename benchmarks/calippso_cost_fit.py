@@ -3,10 +3,11 @@
     python benchmarks/calippso_cost_fit.py
 
 The cost model (``spherejam.workflow.cost_model``, docs/cluster.md §3) prices a certification as its LP count times
-``A (N / 1000)^b`` CPU seconds per LP, with one (A, b) per LP path: the vertex path (every LP a vertex; the default
-below ``core.calippso_path.INTERIOR_STEPS_MIN_N``) and interior steps (the default from there on). Each pair is a
-power law through two anchors, and every other measured row is printed against it (model / measured), so that the
-rows not in the fit check it. Two kinds of row:
+``A (N / 1000)^b`` CPU seconds per LP, per LP path: the vertex path (every LP a vertex; the default below
+``core.calippso_path.INTERIOR_STEPS_MIN_N``) and interior steps (the default from there on). Each law is a power law
+through two anchors; the vertex path's is two, joined at N = 4096, where its LPs become cold HiPO solves. Every
+other measured row is printed against the model (model / measured), so that the rows not in the fit check it. Two
+kinds of row:
 
 * a whole run: its CPU seconds (start-up of the run, every LP and the force LP) over its LPs, from the per-input
   records of ``calippso_paths_stats.py`` (``paths/<set>/<input>/<path>.json``, pooled: total CPU over total LPs);
@@ -38,10 +39,11 @@ def pooled(group: str, path: str) -> tuple[int, float, int, int]:
     return (recs[0]["n"] if recs else 0), (sum(r["cpu_s"] for r in recs) / lps if lps else math.nan), len(recs), lps
 
 
-def lp_rows(csv_name: str, method: str | None, n: int) -> tuple[int, float, int]:
-    """(N, mean CPU s of its LPs of ``method`` (None: every LP), LPs) from a per-LP CSV."""
+def lp_rows(csv_name: str, method: str | None, n: int, exclude: str | None = None) -> tuple[int, float, int]:
+    """(N, mean CPU s of its LPs of ``method`` (None: every LP but those of ``exclude``), LPs) from a per-LP CSV."""
     with open(RECORDS / csv_name) as fh:
-        cpu = [float(r["iteration_cpu_s"]) for r in csv.DictReader(fh) if method in (None, r["method"])]
+        cpu = [float(r["iteration_cpu_s"]) for r in csv.DictReader(fh)
+               if method in (None, r["method"]) and r["method"] != exclude]
     return n, (sum(cpu) / len(cpu) if cpu else math.nan), len(cpu)
 
 
@@ -51,10 +53,10 @@ def power_law(a: tuple[int, float], b: tuple[int, float]) -> tuple[float, float]
     return a[1] / (a[0] / 1000.0) ** exponent, exponent
 
 
-#: The vertex path's mean per LP at N = 1e4 over the three inputs measured there (docs/calippso.md §9, docs/cluster.md
-#: §3: an MLS output, 6 LPs, 389 s; an LS output at gamma = 1e-3, 4 LPs, 357 s; an LS output at sigma = 0.3, 42 LPs,
-#: 194 s), the anchor of the model before this fit; runs that did not end, so a lower bound of a whole run's mean.
-VERTEX_1E4 = (10_000, 313.0)
+#: The vertex path's mean per LP at N = 1e4 over the three inputs measured there in issue 30 (docs/calippso.md §9:
+#: 389, 357 and 194 s), the anchor of the model until the fourth sitting of issue 46. The same LS input's vertex LP
+#: took 60 s with today's code (ls10000_p1e12_s0.lps.csv, LP 1), so it is shown for the record, not fitted.
+VERTEX_1E4_ISSUE30 = (10_000, 313.0)
 
 
 def main() -> int:
@@ -64,7 +66,12 @@ def main() -> int:
             ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto)", lambda: pooled("ls1024", "auto")),
             ("ls4096_p1e12 (N = 4096), every LP of the vertex path so far (run not ended)",
              lambda: lp_rows("ls4096_p1e12.vertex.lps.csv", None, 4096)),
-            ("three N = 1e4 inputs, 52 LPs (docs/calippso.md §9; runs not ended)", lambda: VERTEX_1E4),
+            ("ls10000_p1e12_s0 (N = 1e4), its vertex LP (run not ended)",
+             lambda: lp_rows("ls10000_p1e12_s0.lps.csv", None, 10_000, exclude="interior")),
+            ("three N = 1e4 inputs, 52 LPs, issue 30's code (docs/calippso.md §9; not fitted)",
+             lambda: VERTEX_1E4_ISSUE30),
+            ("ls16384_p1e5 (N = 16384), its LPs on the vertex path (LP 1, LPs 43 on; run not ended)",
+             lambda: lp_rows("ls16384_p1e5.lps.csv", None, 16_384, exclude="interior")),
         ],
         "interior": [
             ("30 archived N = 1000 MLS outputs, whole runs (paths/mls1000, auto+interior)",
@@ -79,8 +86,11 @@ def main() -> int:
              lambda: lp_rows("ls16384_p1e5.lps.csv", "interior", 16_384)),
         ],
     }
-    # anchors: the whole runs at N = 1000 (the most inputs) and the largest N measured (LPs of runs not ended)
-    anchors = {"vertex": (0, 3), "interior": (0, 4)}
+    # anchors, as a chain of segments: the vertex path bends at N = 4096, where its LPs become cold HiPO solves (no
+    # warm start, no active-set shortcut: spherejam.calippso.lp.WARM_START_MAX_N), so it has one power law through the
+    # whole runs at N = 1000 and the N = 4096 LPs, and another from there through the largest N measured; interior
+    # steps are one law through N = 1000 and the largest N
+    anchors = {"vertex": [0, 2, 5], "interior": [0, 4]}
     for path, candidates in rows.items():
         measured = []
         for label, get in candidates:
@@ -90,17 +100,21 @@ def main() -> int:
                 print(f"({path}: no record for {label})")
                 n, t, count = 0, math.nan, []
             measured.append((label, n, t, count))
-        i, j = anchors[path]
-        a, b = power_law(measured[i][1:3], measured[j][1:3])
-        print(f"\n{path}: A = {a:.3g} s, b = {b:.3f}  (through rows {i + 1} and {j + 1})")
+        chain = anchors[path]
+        segments = [(measured[i][1], *power_law(measured[i][1:3], measured[j][1:3]))
+                    for i, j in zip(chain, chain[1:])]
+        for k, (n0, a, b) in enumerate(segments):
+            print(f"\n{path}, segment {k + 1} (from N = {n0}): A = {a:.3g} s, b = {b:.3f}  "
+                  f"(through rows {chain[k] + 1} and {chain[k + 1] + 1})")
         print("| row | N | measured CPU s / LP | (inputs,) LPs | model | model / measured | in the fit |")
         print("|---|---|---|---|---|---|---|")
         for k, (label, n, t, count) in enumerate(measured):
             if not n:
                 continue
+            _, a, b = [seg for seg in segments if seg[0] <= n or seg is segments[0]][-1]
             model = a * (n / 1000.0) ** b
             print(f"| {label} | {n} | {t:.3g} | {', '.join(map(str, count)) or '-'} | {model:.3g} | "
-                  f"{model / t:.2f} | {'yes' if k in (i, j) else 'no'} |")
+                  f"{model / t:.2f} | {'yes' if k in chain else 'no'} |")
     return 0
 
 

@@ -23,7 +23,8 @@ itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
   p = 1e5), LS at gamma = 1e-3, sigma = 0;
 - ``ls4096_p1e5``, ``ls4096_p1e12``: the same two LS kinds (gamma = 1e-3, sigma = 0, p = 1e5 and 1e12) at N = 4096,
   where the LP path's default changes (docs/calippso.md §10.11); ``ls512_p1e12`` the p = 1e12 kind at N = 512, whose
-  2 x 2 x 2 tiling (``bench_calippso.py --tile 2``) is an N = 4096 input made in minutes;
+  2 x 2 x 2 tiling (``bench_calippso.py --tile 2``) is an N = 4096 input made in minutes; ``lsmls4096_p1e5``
+  ``lsmls1024_p1e5``'s recipe at N = 4096;
 - ``mls10000_s0``: a true MLS output at N = 1e4, the kind of packing the workflow certifies: the paper's MLS
   (gamma 10 -> 1e-4, halved per stage, p_max = 1e12) from ``ls10000_rate0.5_s0``, a fast LS output (gamma = 0.5,
   p = 1e12), the kind of start whose closest jammed state MLS searches for. Hours of CPU; its MLS run checkpoints
@@ -60,6 +61,9 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     # interior steps on whole runs, docs/calippso.md §10.11)
     "ls4096_p1e5": (4096, 0.0, 1e-3, 1e5, 1),
     "ls4096_p1e12": (4096, 0.0, 1e-3, 1e12, 1),
+    # lsmls1024_p1e5's recipe at N = 4096 (LS, then MLS at p_max = 1e5: p = 1e5 is the packing's own pressure),
+    # the kind of start that certifies in 9-18 LPs at N = 1024 (docs/calippso.md §10.13)
+    "lsmls4096_p1e5": (4096, 0.0, 1e-2, 1e5, 1),
     # tiled 2 x 2 x 2 (bench_calippso.py --tile 2): an N = 4096 input in minutes, where ls4096_p1e12 takes an hour
     "ls512_p1e12": (512, 0.0, 1e-3, 1e12, 1),
     # the MLS fixture's start: fast LS, far from its closest jammed state (the parity starts, docs/mls_parity.md §6)

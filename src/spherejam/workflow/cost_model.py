@@ -19,7 +19,8 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
 * CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of :func:`calippso_lp_seconds` each, for the LP
   path that runs at that N (:func:`spherejam.core.calippso_path.interior_steps_at`, or ``calippso.interior_steps``):
-  ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` on the vertex path,
+  ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` on the vertex path (``CALIPPSO_COLD_LP_SECONDS (N /
+  1000)^CALIPPSO_COLD_EXPONENT`` from ``CALIPPSO_COLD_MIN_N`` on, where every LP is a cold solve),
   ``CALIPPSO_INTERIOR_LP_SECONDS (N / 1000)^CALIPPSO_INTERIOR_EXPONENT`` with interior steps (the per-LP time
   includes the run's share of its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
@@ -77,11 +78,16 @@ FB_SECONDS = 3.5e-7
 CALIPPSO_LPS = 14.2
 CALIPPSO_LPS_EXPONENT = 0.96
 #: CPU seconds per LP on the vertex path (every LP a vertex; the default, below core.calippso_path's
-#: INTERIOR_STEPS_MIN_N when it is set): at N = 1000 the mean of 30 archived MLS outputs certified whole (577 LPs,
-#: start-up and force LPs included), growing as N^CALIPPSO_EXPONENT through the mean per LP at N = 10^4 (313 s: 52 LPs
-#: of three inputs). Refitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
+#: INTERIOR_STEPS_MIN_N when it is set), a power law in two segments joined at CALIPPSO_COLD_MIN_N. Below it most LPs
+#: are warm-started or active-set solves: through the mean of 30 archived N = 1000 MLS outputs certified whole (577
+#: LPs, start-up and force LPs included) and the vertex path's LPs at N = 4096. From it on every LP is a cold HiPO
+#: solve, and the time grows more slowly: through the N = 4096 LPs and the N = 16384 run's vertex-path LPs. Fitted by
+#: benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
 CALIPPSO_LP_SECONDS = 0.52
-CALIPPSO_EXPONENT = 2.78
+CALIPPSO_EXPONENT = 2.81
+CALIPPSO_COLD_MIN_N = 4096  # spherejam.calippso.lp.WARM_START_MAX_N, not imported: this module stays light
+CALIPPSO_COLD_LP_SECONDS = 2.44
+CALIPPSO_COLD_EXPONENT = 1.71
 #: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
 #: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 29 of the same N = 1000 MLS outputs
 #: (268 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
@@ -193,6 +199,8 @@ def calippso_lp_seconds(n: int, interior_steps: bool | None = None) -> float:
     n = _check_n(n)
     if interior_steps_at(n, interior_steps):
         return CALIPPSO_INTERIOR_LP_SECONDS * (n / 1000.0) ** CALIPPSO_INTERIOR_EXPONENT
+    if n >= CALIPPSO_COLD_MIN_N:
+        return CALIPPSO_COLD_LP_SECONDS * (n / 1000.0) ** CALIPPSO_COLD_EXPONENT
     return CALIPPSO_LP_SECONDS * (n / 1000.0) ** CALIPPSO_EXPONENT
 
 

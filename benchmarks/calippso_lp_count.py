@@ -1,0 +1,133 @@
+"""How many LPs a certification takes, by the recipe of its input and by N (issue 46; docs/calippso.md §10.13).
+
+    python benchmarks/calippso_lp_count.py --out DIR --n 1024 2048 --recipes ls:1e-3 mls:1e-2 --seeds 1 2 3
+    python benchmarks/calippso_lp_count.py --out DIR --reference-example Centers-after-LS--N-1024--d-3.dat
+    python benchmarks/calippso_lp_count.py --out benchmarks/records/calippso/lp_count --summarize
+
+A recipe makes an N-sphere input at the reference's stop pressure p = 1e5 (sigma = 0, d = 3) from Poisson points:
+
+* ``ls:GAMMA``: LS at compression rate GAMMA to p = 1e5;
+* ``mls:GAMMA``: the same LS, then the MLS loop at p_max = 1e5 (rates GAMMA -> 1e-4), so that 1e5 is the packing's own
+  pressure (``bench_calippso.ls_start``).
+
+Each input is certified on the default path, with the LP cap ``--max-iterations``, and the certificate is checked on
+its own (``bench_calippso.validity``). ``--reference-example`` certifies one of CALiPPSO.jl's example inputs (its
+``Examples/Centers-after-LS--N-*--d-3.dat``, read with ``spherejam import``'s reader; not shipped with spherejam) as
+one more row. One JSON record per input in ``--out``, written atomically (a rerun skips the records it has), with
+the per-LP CSV beside it (``calippso/lp_log.py``). CPU seconds are this process's on a shared machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_calippso import Certificate, ls_start, validity  # noqa: E402
+
+from spherejam.core.atomic import atomic_output  # noqa: E402
+
+PRESSURE = 1e5
+
+
+def parse_recipe(text: str) -> tuple[str, float]:
+    """``ls:GAMMA`` or ``mls:GAMMA`` -> (kind, gamma)."""
+    kind, _, rate = text.partition(":")
+    if kind not in ("ls", "mls") or not rate:
+        raise SystemExit(f"--recipes: {text!r} is not ls:GAMMA or mls:GAMMA")
+    return kind, float(rate)
+
+
+def certify(packing, lp_log: Path, max_iterations: int) -> tuple[Certificate, float]:
+    from spherejam.calippso.run import run_calippso
+
+    t = time.process_time()
+    result = run_calippso(packing, max_iterations=max_iterations, lp_log=lp_log, progress_interval=60.0)
+    cpu = time.process_time() - t
+    return Certificate.of(result, cpu), cpu
+
+
+def record(label: str, n: int, packing, build_cpu: float, cert: Certificate, cpu: float) -> dict:
+    ok, failed = validity(cert)
+    return {"input": label, "n": n, "phi_start": float(packing.phi), "phi_J": float(cert.phi),
+            "lps": int(cert.iterations), "converged": bool(cert.completed), "valid": ok, "failed": failed,
+            "contacts": int(cert.n_contacts), "rattlers": int(cert.n_rattlers), "build_cpu_s": build_cpu,
+            "cpu_s": cpu}
+
+
+def write(path: Path, rec: dict) -> None:
+    with atomic_output(path) as tmp:
+        Path(tmp).write_text(json.dumps(rec, indent=1))
+    print(json.dumps(rec), flush=True)
+
+
+def run(args) -> None:
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.reference_example:
+        from spherejam.formats import read
+
+        src = Path(args.reference_example)
+        name = f"reference-{src.stem}"
+        if not (out / f"{name}.json").exists():
+            packing = read(src, "calippso-jl", box=1.0)
+            cert, cpu = certify(packing, out / f"{name}.lps.csv", args.max_iterations)
+            write(out / f"{name}.json", record(f"CALiPPSO.jl example {src.name}", packing.n, packing, 0.0, cert, cpu))
+    for text in args.recipes:
+        kind, rate = parse_recipe(text)
+        for n in args.n:
+            for seed in args.seeds:
+                name = f"{kind}{rate:g}-n{n}-s{seed}"
+                if (out / f"{name}.json").exists():
+                    continue
+                t = time.process_time()
+                packing, _ = ls_start(n, PRESSURE, rate, seed, kind=kind)
+                build_cpu = time.process_time() - t
+                cert, cpu = certify(packing, out / f"{name}.lps.csv", args.max_iterations)
+                write(out / f"{name}.json", record(f"{kind}:{rate:g}", n, packing, build_cpu, cert, cpu))
+
+
+def summarize(out: Path) -> None:
+    recs = [json.loads(Path(f).read_text()) for f in sorted(glob.glob(str(out / "*.json")))]
+    groups: dict[tuple[str, int], list[dict]] = {}
+    for r in recs:
+        groups.setdefault((r["input"], r["n"]), []).append(r)
+    print("| input (p = 1e5) | N | inputs | LPs, each | LPs, median | LPs, mean | phi_J - phi_start, median | "
+          "CPU s / LP | converged, valid |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for (label, n), rs in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+        lps = [r["lps"] for r in rs]
+        per_lp = sum(r["cpu_s"] for r in rs) / max(sum(lps), 1)
+        dphi = statistics.median(r["phi_J"] - r["phi_start"] for r in rs)
+        each = ", ".join(f"{r['lps']}" + ("" if r["converged"] else " (cap)") for r in rs)
+        print(f"| {label} | {n} | {len(rs)} | {each} | "
+              f"{statistics.median(lps):g} | {statistics.mean(lps):.1f} | {dphi:.1e} | {per_lp:.2g} | "
+              f"{sum(r['converged'] for r in rs)}, {sum(r['valid'] for r in rs)} of {len(rs)} |")
+    if not recs:
+        print(f"no records in {out} (n = 0)")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", required=True, help="folder of the per-input records")
+    ap.add_argument("--n", type=int, nargs="*", default=[1024])
+    ap.add_argument("--recipes", nargs="*", default=["ls:1e-3", "mls:1e-2"], help="ls:GAMMA or mls:GAMMA")
+    ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
+    ap.add_argument("--max-iterations", type=int, default=1000)
+    ap.add_argument("--reference-example", help="a CALiPPSO.jl Examples/Centers-after-LS--N-*--d-3.dat file")
+    ap.add_argument("--summarize", action="store_true", help="print the table of the records in --out and stop")
+    args = ap.parse_args(argv)
+    if args.summarize:
+        summarize(Path(args.out))
+    else:
+        run(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

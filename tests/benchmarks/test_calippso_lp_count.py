@@ -1,0 +1,41 @@
+"""``benchmarks/calippso_lp_count.py``: an input made by its recipe is certified, the record says so, a rerun skips
+it, and the summary table counts it."""
+
+import importlib
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+_BENCHMARKS = str(Path(__file__).resolve().parents[2] / "benchmarks")
+if _BENCHMARKS not in sys.path:
+    sys.path.insert(0, _BENCHMARKS)
+lp_count = importlib.import_module("calippso_lp_count")
+
+
+def test_recipes_are_parsed_and_bad_ones_named():
+    assert lp_count.parse_recipe("ls:1e-3") == ("ls", 1e-3)
+    assert lp_count.parse_recipe("mls:0.01") == ("mls", 0.01)
+    for bad in ("fb:1e-3", "ls", "ls:"):
+        with pytest.raises(SystemExit, match="--recipes"):
+            lp_count.parse_recipe(bad)
+
+
+def test_an_input_is_certified_recorded_and_summarized(tmp_path, capsys):
+    out = tmp_path / "records"
+    assert lp_count.main(["--out", str(out), "--n", "64", "--recipes", "ls:1e-2", "--seeds", "1"]) == 0
+    rec = json.loads((out / "ls0.01-n64-s1.json").read_text())
+    assert rec["n"] == 64 and rec["input"] == "ls:0.01"
+    # a certificate at p = 1e5 raises phi by about d phi / p, never lowers it, and is valid on its own
+    assert rec["converged"] and rec["valid"] and rec["lps"] >= 1
+    assert 0 < rec["phi_J"] - rec["phi_start"] < 1e-3
+    lps_csv = (out / "ls0.01-n64-s1.lps.csv").read_text().splitlines()
+    assert len(lps_csv) == 1 + rec["lps"]  # a header and one row per LP
+    mtime = (out / "ls0.01-n64-s1.json").stat().st_mtime_ns
+    lp_count.main(["--out", str(out), "--n", "64", "--recipes", "ls:1e-2", "--seeds", "1"])
+    assert (out / "ls0.01-n64-s1.json").stat().st_mtime_ns == mtime  # done inputs are skipped
+    capsys.readouterr()
+    lp_count.main(["--out", str(out), "--summarize"])
+    table = capsys.readouterr().out
+    assert f"| ls:0.01 | 64 | 1 | {rec['lps']} |" in table and "1, 1 of 1" in table
