@@ -43,6 +43,7 @@ def _phi_cell(r: dict | None) -> str:
 
 
 def summarize(out: Path) -> None:
+    by_protocol: dict[str, list[tuple[str, list]]] = {}  # "sigma0.3-ls0.5" -> [(cell, its complete pairs)]
     for cell in sorted(p for p in out.iterdir() if p.is_dir()):
         pairs = []
         for pair in sorted(cell.glob("pair-*")):
@@ -138,3 +139,12 @@ def summarize(out: Path) -> None:
               + _median_spread([(c['cpu_s'] / c['collisions']) / (o['cpu_s'] / o['collisions']) for o, c in both]))
         print("- collisions per search, ours / C++ (complete pairs): "
               + _median_spread([o["collisions"] / c["collisions"] for o, c in complete]))
+        by_protocol.setdefault(cell.name.partition("-")[2], []).append((cell.name, complete))
+    for protocol, cells in by_protocol.items():
+        if len(cells) < 2:
+            continue
+        pooled = [pair for _, complete in cells for pair in complete]
+        # the question of a cell, asked of every N at once: a code difference that does not depend on N
+        print(f"\n## {protocol}, pooled over {', '.join(name for name, _ in cells)}\n")
+        print("- phi_J paired difference: "
+              + paired_difference([o["phi_J"] for o, _ in pooled], [c["phi_J"] for _, c in pooled]))

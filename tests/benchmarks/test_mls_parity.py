@@ -203,6 +203,10 @@ def test_summary_gives_paired_difference_interval_and_power(tmp_path, capsys):
     assert f"power to detect |diff| = 0.001: {power:.2f}" in line and 0.0 < power < 1.0
     assert "- speed ratio per search, C++ CPU / our CPU: median 6" in big
     assert "- phi_J paired difference: not estimable (n = 4" in small
+    # the two cells of one protocol pooled: every complete pair of both, the same statistics
+    pooled = text.split("## sigma0.3-ls0.5, pooled over N1000-sigma0.3-ls0.5, N500-sigma0.3-ls0.5")[1]
+    both = np.concatenate([diffs, diffs[:4]])
+    assert f"ours - C++ = {both.mean():+.5f}" in pooled and "(paired t, alpha = 0.05, n = 16)" in pooled
 
 
 def test_compact_records_summarize_like_the_full_ones(tmp_path, capsys):
