@@ -34,6 +34,7 @@ from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
 from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
 from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
+from .creep import creep_message, creeping
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
 from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
@@ -573,6 +574,7 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
     """Iterate until both tolerances are met (True) or ``max_iterations`` LPs have been solved (False). Each LP's
     history row goes to the LP log at once; the state is saved whenever the checkpoint is due, and on
     SIGTERM/SIGINT, which then stop the run."""
+    told = False  # the creep is told once per process
     while run.iteration < max_iterations:
         sqrt_inflation, max_s = _iteration(run, cfg, progress)
         log.append({k: run.history.last(k) for k in run.history.as_arrays()}, run.iteration)
@@ -581,6 +583,11 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
             sqrt_inflation = 1.0 + abs(sqrt_inflation - 1.0)
         if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             return True
+        if not told:
+            columns = run.history.as_arrays()
+            told = creeping(columns["sqrt_inflation_minus_1"], columns["contact_changes"])
+            if told:
+                _log.warning(creep_message(run.iteration, sqrt_inflation - 1.0))
         if ckpt.due():
             run.save(ckpt)
         if interrupt.requested() is not None:  # SIGTERM/SIGINT: save and stop
