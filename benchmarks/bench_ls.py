@@ -16,7 +16,7 @@ Also the cold-start time of a new process (import + cached numba code + a tiny r
 Issue 35 (any box, any size ratio), each case in a fresh process (so its peak memory is its own):
 
     python benchmarks/bench_ls.py before-after --baseline-src /work/main/src   # N = 1e3, 1e4, sigma 0, 0.3
-    python benchmarks/bench_ls.py wide [--baseline-src ...] [--out W.jsonl]   # N = 1e4: issue 47's table
+    python benchmarks/bench_ls.py wide [--baseline-src ...] [--out W.jsonl] [--rounds R]   # N = 1e4: issue 47's table
     python benchmarks/bench_ls.py scale --sizes 100000 1000000 --max-wall 900   # sigma 0.3, gamma = 1
 
 Issue 47 (where the time goes at wide size ratios; docs/algorithms.md §7.5), the counts of each distribution:
@@ -225,30 +225,39 @@ def before_after(baseline: str, sizes, sigmas, repeats: int) -> None:
 WIDE_TABLE = ("mono", "sigma0.3", "bi3", "bi5", "bi10", "lognormal0.5", "powerlaw-3r20")
 
 
-def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE, rows=WIDE_TABLE) -> None:
+def wide(baseline: str | None, n: int, out: str | None = None, before=WIDE_TABLE, rows=WIDE_TABLE,
+         rounds: int = 1) -> None:
     """Issue 47's table (the distributions ``rows``, monodisperse first): each with the baseline's package
     (``before``, if given; only the distributions ``before``) and this one (``after``), alternately, each run in a
-    fresh process; every rate against the monodisperse rate of the same tree and invocation. ``out``: each run as a
-    JSON line (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
+    fresh process; every rate against the monodisperse rate of the same tree and round. ``rounds`` > 1 repeats the
+    whole table, so that a drift of the machine's load hits every row alike, and ends with each row's median ratio.
+    ``out``: each run as a JSON line (``benchmarks/cost_fit.py`` reads the ``after`` ones)."""
     sources = [("after", str(__import__("pathlib").Path(__file__).resolve().parents[1] / "src"))]
     if baseline:
         sources.insert(0, ("before", baseline))
-    mono: dict[str, dict] = {}
+    ratios: dict[tuple[str, str], list[float]] = {}
     print(f"load average at start: {os.getloadavg()}", flush=True)
-    for dist in dict.fromkeys(("mono",) + tuple(rows)):
-        for label, src in sources:
-            if label == "before" and dist not in before and dist != "mono":
-                continue
-            b = run_case(src, n, dist, RATE)
-            mono.setdefault(label, b)
-            m = mono[label]
-            print(_line(label, b) + f"  d_max/d_min={b['d_ratio']:.1f}  rate/mono={b['per_s'] / m['per_s']:.3f}",
-                  flush=True)
-            if out:
-                with open(out, "a") as fh:
-                    fh.write(json.dumps({"tree": label, "src": src, "timed": b, "mono_per_s": m["per_s"],
-                                         "mono_collisions": m["collisions"]}) + "\n")
+    for _ in range(rounds):
+        mono: dict[str, dict] = {}
+        for dist in dict.fromkeys(("mono",) + tuple(rows)):
+            for label, src in sources:
+                if label == "before" and dist not in before and dist != "mono":
+                    continue
+                b = run_case(src, n, dist, RATE)
+                mono.setdefault(label, b)
+                m = mono[label]
+                ratios.setdefault((label, dist), []).append(b["per_s"] / m["per_s"])
+                print(_line(label, b) + f"  d_max/d_min={b['d_ratio']:.1f}  rate/mono={b['per_s'] / m['per_s']:.3f}",
+                      flush=True)
+                if out:
+                    with open(out, "a") as fh:
+                        fh.write(json.dumps({"tree": label, "src": src, "timed": b, "mono_per_s": m["per_s"],
+                                             "mono_collisions": m["collisions"]}) + "\n")
     print(f"load average at end: {os.getloadavg()}", flush=True)
+    if rounds > 1:
+        print("| tree | distribution | rate/mono, each round | median |\n|---|---|---|---|")
+        for (label, dist), r in ratios.items():
+            print(f"| {label} | {dist} | {', '.join(f'{x:.3f}' for x in r)} | {float(np.median(r)):.3f} |")
 
 
 # --- issue 47: where the time goes at wide ratios (counts) ----------------------------------------------------
@@ -510,6 +519,7 @@ def main() -> None:
         ap.add_argument("--extra", action="store_true", help="counts: also the cost model's further rows")
         ap.add_argument("--out", default=None, help="counts: append each distribution's figures as JSON here")
         ap.add_argument("--jobs", type=int, default=1, help="counts: cases run at once")
+        ap.add_argument("--rounds", type=int, default=1, help="wide: the whole table this many times, interleaved")
         a = ap.parse_args()
         if a.mode == "case":
             print(json.dumps(case(a.n, a.dist, a.rate, not a.no_prepare, a.max_wall)))
@@ -521,7 +531,7 @@ def main() -> None:
         elif a.mode == "before-after":
             before_after(a.baseline_src, a.sizes or [1000, 10000], a.sigmas, a.repeats)
         elif a.mode == "wide":
-            wide(a.baseline_src, a.n, a.out, a.dists or WIDE_TABLE, a.dists or WIDE_TABLE)
+            wide(a.baseline_src, a.n, a.out, a.dists or WIDE_TABLE, a.dists or WIDE_TABLE, a.rounds)
         else:
             scale(a.sizes or [100000, 1000000], a.max_wall or 900.0)
         return
