@@ -3,6 +3,8 @@
     python benchmarks/calippso_lp_count.py --out DIR --n 1024 2048 --recipes ls:1e-3 mls:1e-2 --seeds 1 2 3
     python benchmarks/calippso_lp_count.py --out DIR --reference-example Centers-after-LS--N-1024--d-3.dat
     python benchmarks/calippso_lp_count.py --out benchmarks/records/calippso/lp_count --summarize
+    python benchmarks/calippso_lp_count.py --out DIR --gaps --n 1024 --recipes ls:1e-3 mls:1e-2 ls:1e-2 \
+        --reference-example Centers-after-LS--N-1024--d-3.dat      # the inputs' near contacts, nothing certified
 
 A recipe makes an N-sphere input at the reference's stop pressure p = 1e5 (sigma = 0, d = 3) from Poisson points:
 
@@ -58,6 +60,34 @@ def record(label: str, n: int, packing, build_cpu: float, cert: Certificate, cpu
             "lps": int(cert.iterations), "converged": bool(cert.completed), "valid": ok, "failed": failed,
             "contacts": int(cert.n_contacts), "rattlers": int(cert.n_rattlers), "build_cpu_s": build_cpu,
             "cpu_s": cpu}
+
+
+#: Gap thresholds of ``--gaps``: contacts per sphere counted among pairs with h = r_ij / D_ij - 1 below each.
+GAP_THRESHOLDS = (1e-6, 1e-5, 3e-5, 1e-4, 1e-3)
+
+
+def near_contacts(packing) -> str:
+    """One table row's cells: 2 (pairs with h below each of :data:`GAP_THRESHOLDS`) / N."""
+    i, j, r = packing.pairs_within(1.0 + max(GAP_THRESHOLDS))
+    h = r / ((packing.diameters[i] + packing.diameters[j]) / 2.0) - 1.0
+    return " | ".join(f"{2 * int((h < t).sum()) / packing.n:.3f}" for t in GAP_THRESHOLDS)
+
+
+def gaps(args) -> None:
+    """The near-contact counts of the inputs ``run`` would certify (rebuilt from their recipes), without certifying."""
+    print("| input (p = 1e5) | N | seed | phi | " + " | ".join(f"z(h < {t:g})" for t in GAP_THRESHOLDS) + " |")
+    print("|---|---|---|---|" + "---|" * len(GAP_THRESHOLDS))
+    if args.reference_example:
+        from spherejam.formats import read
+
+        packing = read(args.reference_example, "calippso-jl", box=1.0)
+        print(f"| CALiPPSO.jl example | {packing.n} | - | {packing.phi:.6f} | {near_contacts(packing)} |", flush=True)
+    for text in args.recipes:
+        kind, rate = parse_recipe(text)
+        for n in args.n:
+            for seed in args.seeds:
+                packing, _ = ls_start(n, PRESSURE, rate, seed, kind=kind)
+                print(f"| {kind}:{rate:g} | {n} | {seed} | {packing.phi:.6f} | {near_contacts(packing)} |", flush=True)
 
 
 def write(path: Path, rec: dict) -> None:
@@ -121,9 +151,12 @@ def main(argv=None) -> int:
     ap.add_argument("--max-iterations", type=int, default=1000)
     ap.add_argument("--reference-example", help="a CALiPPSO.jl Examples/Centers-after-LS--N-*--d-3.dat file")
     ap.add_argument("--summarize", action="store_true", help="print the table of the records in --out and stop")
+    ap.add_argument("--gaps", action="store_true", help="print the inputs' near-contact counts and stop")
     args = ap.parse_args(argv)
     if args.summarize:
         summarize(Path(args.out))
+    elif args.gaps:
+        gaps(args)
     else:
         run(args)
     return 0

@@ -39,3 +39,12 @@ def test_an_input_is_certified_recorded_and_summarized(tmp_path, capsys):
     lp_count.main(["--out", str(out), "--summarize"])
     table = capsys.readouterr().out
     assert f"| ls:0.01 | 64 | 1 | {rec['lps']} |" in table and "1, 1 of 1" in table
+
+
+def test_gaps_count_near_contacts_without_certifying(tmp_path, capsys):
+    lp_count.main(["--out", str(tmp_path / "none"), "--gaps", "--n", "64", "--recipes", "ls:1e-2", "--seeds", "1"])
+    row = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("| ls:0.01 | 64 | 1 |"))
+    z = [float(c) for c in row.strip("| ").split(" | ")[4:]]
+    # contacts per sphere among ever wider gaps: never fewer, and at p = 1e5 about isostatic (6) by h < 1e-3
+    assert len(z) == len(lp_count.GAP_THRESHOLDS) and z == sorted(z) and 4.5 < z[-1] < 7.0
+    assert not (tmp_path / "none").exists()  # nothing certified, nothing written
