@@ -54,7 +54,7 @@ def power_law(a: tuple[int, float], b: tuple[int, float]) -> tuple[float, float]
 
 
 #: The vertex path's mean per LP at N = 1e4 over the three inputs measured there in issue 30 (docs/calippso.md §9:
-#: 389, 357 and 194 s), the anchor of the model until the fourth sitting of issue 46. The same LS input's vertex LP
+#: 389, 357 and 194 s), the anchor of the model until 2026-12-05. The same LS input's vertex LP
 #: took 60 s with today's code (ls10000_p1e12_s0.lps.csv, LP 1), so it is shown for the record, not fitted.
 VERTEX_1E4_ISSUE30 = (10_000, 313.0)
 
