@@ -577,14 +577,14 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
     told = False  # the creep is told once per process
     while run.iteration < max_iterations:
         sqrt_inflation, max_s = _iteration(run, cfg, progress)
-        log.append({k: run.history.last(k) for k in run.history.as_arrays()}, run.iteration)
+        columns = run.history.as_arrays()
+        log.append({k: run.history.last(k) for k in columns}, run.iteration)
         vertex = run.last[1].method_name != "interior"  # an interior step's s is no vertex's: never converged on
         if cfg.walls is not None:  # a step deflated by a curved wall's margin is no closer to jamming
             sqrt_inflation = 1.0 + abs(sqrt_inflation - 1.0)
         if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
             return True
         if not told:
-            columns = run.history.as_arrays()
             told = creeping(columns["sqrt_inflation_minus_1"], columns["contact_changes"])
             if told:
                 _log.warning(creep_message(run.iteration, sqrt_inflation - 1.0))

@@ -911,6 +911,7 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
     src = rows if base >= 0 else st
     for k0 in range(0, m, _BLOCK):
         k1 = min(m, k0 + _BLOCK)
+        # two loops, not one with a per-entry choice of row: a branch inside would keep the gather from vectorising
         if base >= 0:
             for kk in range(k0, k1):  # the copy: one contiguous stream, no index
                 r = base + kk
