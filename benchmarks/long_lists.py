@@ -3,7 +3,8 @@ two-pass path (``_predict_long``) against the scalar loop (``_predict_pairs`` on
 ``LONG_LIST`` entries, carrying the running best), in one process, on a synthetic first shell: a sphere of D = 10
 with ``--m`` small neighbours (D = 1) at 1.0-1.2 contact distances, moving at random, their rows scattered among
 ``--rows`` rows of ``st`` (``--rows`` = m + 1: contiguous). A third path, ``copy``, is the two-pass reading the
-neighbours' rows from a contiguous copy in list order (docs/algorithms.md §7.8) instead of gathering them from ``st``.
+neighbours' rows from a contiguous copy in list order, laid out by field (docs/algorithms.md §7.8), instead of
+gathering them from ``st``.
 Every path must return the same event (checked).
 
     python benchmarks/long_lists.py [--m 340] [--rows 10000] [--repeats 5]
@@ -76,16 +77,16 @@ def main() -> None:
         pieces[p, :len(part)], lens[p] = part, len(part)
     ev_time = t + rng.exponential(0.01, a.rows)
     x, v = st[0, :3].copy(), st[0, 3:6].copy()
-    copy = st[nbr[0]].copy()  # the neighbours' rows in list order
+    copy = st[nbr[0]].T.copy()  # the neighbours' rows in list order, by field (as LongCopies holds them)
     for rho, gamma in ((1.0, 1e-2), (1.0, 1e-4)):
-        two = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, st, -1)
+        two = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, np.empty((8, 0)), -1)
         cop = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, copy, 0)
         one = _scalar(1, st, ev_time, pieces, lens, x, v, 10.0, rho, gamma, t, box)
         assert two == one and cop == one, (two, cop, one)
         ns = {}
         for name, f, args in (("two-pass", _two_pass, (nbr, nnb)), ("scalar", _scalar, (pieces, lens)),
                               ("copy", _two_pass, (nbr, nnb))):
-            extra = {"two-pass": (st, -1), "copy": (copy, 0), "scalar": ()}[name]
+            extra = {"two-pass": (np.empty((8, 0)), -1), "copy": (copy, 0), "scalar": ()}[name]
             best = np.inf
             for _ in range(a.repeats):
                 c0 = time.process_time()

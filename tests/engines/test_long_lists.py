@@ -93,13 +93,13 @@ def test_predict_long_is_the_scalar_loop(seed):
         exclude = int(order[rng.integers(m)]) if trial % 2 else -1
         best0 = t + (np.inf if trial % 3 == 0 else 1e-12 if trial % 4 == 1 else 10.0 ** rng.uniform(-6, -1))
         long = ed._predict_long(0, exclude, t, xi, yi, zi, vxi, vyi, vzi, st[0, 7], rho, gamma, best0, ed.SKIN, -1,
-                                st, ev_time, nbr, nnb, *geom, st, -1)
-        # the same list read from a copy of its rows (in list order, at some offset of a larger array)
-        base = int(rng.integers(0, 5)) * m
-        rows = rng.random((base + m + 3, 8))
-        rows[base:base + m] = st[order]
+                                st, ev_time, nbr, nnb, *geom, np.empty((8, 0)), -1)
+        # the same list read from a copy of its rows (by field, in list order, at some offset of a larger array)
+        base = int(rng.integers(0, 5)) * m + int(rng.integers(0, 7))
+        cols = rng.random((8, base + m + 3))
+        cols[:, base:base + m] = st[order].T
         copied = ed._predict_long(0, exclude, t, xi, yi, zi, vxi, vyi, vzi, st[0, 7], rho, gamma, best0, ed.SKIN, -1,
-                                  st, ev_time, nbr, nnb, *geom, rows, base)
+                                  st, ev_time, nbr, nnb, *geom, cols, base)
         assert copied[1:] == long[1:] and _bits(copied[0]) == _bits(long[0])
         # the scalar loop over the same list, in pieces short enough for it, carrying the running best
         best = (best0, ed.SKIN, -1)
@@ -151,7 +151,7 @@ def test_copies_follow_every_change_of_a_row_and_a_list():
         st[j, 6] += 1e-3
         if lc.rhead[j] >= 0:
             assert not ed.copies_current(st, nbr, nnb, lc)  # the check sees a stale row
-        ed._refresh_copies(st, j, lc.rows, lc.rnext, lc.rhead)
+        ed._refresh_copies(st, j, lc.cols, lc.rnext, lc.rhead)
         assert ed.copies_current(st, nbr, nnb, lc)
         # a local list update: a sphere (small, or now and then large) moves anywhere, or next to a large one
         i = int(large[rng.integers(len(large))]) if step % 7 == 0 else int(small[rng.integers(len(small))])

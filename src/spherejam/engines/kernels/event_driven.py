@@ -893,52 +893,49 @@ def delay_bound(rx, ry, rz, ux, uy, uz, sig, rho, gamma):
 
 @njit(cache=True, error_model="numpy")  # numpy: delay_bound divides by b = 0 in lanes it does not keep
 def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best, best_type, best_j, st, ev_time,
-                  nbr, nnb, lx, ly, lz, hx, hy, hz, rows, base):
+                  nbr, nnb, lx, ly, lz, hx, hy, hz, cols, base):
     """:func:`_predict_pairs` for a long list, with the same result bit for bit, in two passes per block of
-    :data:`_BLOCK` neighbours. The first gathers the neighbours' positions and velocities into contiguous rows on the
-    stack and computes a lower bound of every collision delay (:func:`delay_bound`: no branch, vectorised); the second
-    walks the block in list order with the running best and runs :func:`_predict_pairs`' own test only on the few
-    neighbours whose bound beats it. A neighbour whose bound does not beat the running best cannot be accepted by
-    the scalar loop (its time is not below the bound, and that loop accepts only times below the running best), so
-    both take the same events.
+    :data:`_BLOCK` neighbours. The first computes a lower bound of every collision delay (:func:`delay_bound`: no
+    branch, vectorised); the second walks the block in list order with the running best and runs
+    :func:`_predict_pairs`' own test only on the few neighbours whose bound beats it. A neighbour whose bound does not
+    beat the running best cannot be accepted by the scalar loop (its time is not below the bound, and that loop
+    accepts only times below the running best), so both take the same events.
 
-    The neighbours' state rows are read from ``rows[base + k]`` for the list's k-th entry when ``base`` >= 0 (i's
-    :class:`LongCopies` block: contiguous, a stream instead of a gather, docs/algorithms.md §7.8), else from
-    ``st[nbr[i, k]]``; the copy holds the same numbers, so the same events follow."""
+    The neighbours' state is read from ``cols[:, base + k]`` for the list's k-th entry when ``base`` >= 0 (i's
+    :class:`LongCopies` block, laid out by field: the first pass reads eight contiguous streams,
+    docs/algorithms.md §7.8), else gathered from ``st[nbr[i, k]]`` into work rows on the stack first; the copy holds
+    the same numbers, so the same events follow."""
     work = carray(_stack_block(), (8, _BLOCK))
     low = work[7]
     m = nnb[i]
-    src = rows if base >= 0 else st
     for k0 in range(0, m, _BLOCK):
         k1 = min(m, k0 + _BLOCK)
-        # two loops, not one with a per-entry choice of row: a branch inside would keep the gather from vectorising
         if base >= 0:
-            for kk in range(k0, k1):  # the copy: one contiguous stream, no index
-                r = base + kk
-                dtj = t - src[r, 6]
-                q = kk - k0
-                work[0, q] = src[r, 0] + src[r, 3] * dtj - xi
-                work[1, q] = src[r, 1] + src[r, 4] * dtj - yi
-                work[2, q] = src[r, 2] + src[r, 5] * dtj - zi
-                work[3, q] = src[r, 3] - vxi
-                work[4, q] = src[r, 4] - vyi
-                work[5, q] = src[r, 5] - vzi
-                work[6, q] = 0.5 * (di + src[r, 7])
+            # views from the block's first entry: an index from range() is known to be >= 0, so numba's test for a
+            # negative index, which stops the loop from vectorising (3x the time), is not needed
+            o = base + k0
+            x0, x1, x2, x3, x4, x5, x6, x7 = (cols[0, o:], cols[1, o:], cols[2, o:], cols[3, o:], cols[4, o:],
+                                              cols[5, o:], cols[6, o:], cols[7, o:])
+            for q in range(k1 - k0):
+                dtj = t - x6[q]
+                low[q] = delay_bound(fold(x0[q] + x3[q] * dtj - xi, lx, hx), fold(x1[q] + x4[q] * dtj - yi, ly, hy),
+                                     fold(x2[q] + x5[q] * dtj - zi, lz, hz), x3[q] - vxi, x4[q] - vyi, x5[q] - vzi,
+                                     0.5 * (di + x7[q]), rho, gamma)
         else:
             for kk in range(k0, k1):  # gather: the rows are scattered, the arithmetic below runs on contiguous ones
                 j = nbr[i, kk]
-                dtj = t - src[j, 6]
+                dtj = t - st[j, 6]
                 q = kk - k0
-                work[0, q] = src[j, 0] + src[j, 3] * dtj - xi
-                work[1, q] = src[j, 1] + src[j, 4] * dtj - yi
-                work[2, q] = src[j, 2] + src[j, 5] * dtj - zi
-                work[3, q] = src[j, 3] - vxi
-                work[4, q] = src[j, 4] - vyi
-                work[5, q] = src[j, 5] - vzi
-                work[6, q] = 0.5 * (di + src[j, 7])
-        for q in range(k1 - k0):
-            low[q] = delay_bound(fold(work[0, q], lx, hx), fold(work[1, q], ly, hy), fold(work[2, q], lz, hz),
-                                 work[3, q], work[4, q], work[5, q], work[6, q], rho, gamma)
+                work[0, q] = st[j, 0] + st[j, 3] * dtj - xi
+                work[1, q] = st[j, 1] + st[j, 4] * dtj - yi
+                work[2, q] = st[j, 2] + st[j, 5] * dtj - zi
+                work[3, q] = st[j, 3] - vxi
+                work[4, q] = st[j, 4] - vyi
+                work[5, q] = st[j, 5] - vzi
+                work[6, q] = 0.5 * (di + st[j, 7])
+            for q in range(k1 - k0):
+                low[q] = delay_bound(fold(work[0, q], lx, hx), fold(work[1, q], ly, hy), fold(work[2, q], lz, hz),
+                                     work[3, q], work[4, q], work[5, q], work[6, q], rho, gamma)
         for kk in range(k0, k1):
             # rare: the scalar loop's body, as it is in _predict_pairs. Written twice on purpose: one inlined helper
             # for both, taking j's row as numbers, cost +2.7 % instructions in a monodisperse LS run (docs §7.7)
@@ -946,15 +943,21 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
                 j = nbr[i, kk]
                 if j == exclude:
                     continue
-                r = base + kk if base >= 0 else j
-                dtj = t - src[r, 6]
-                ux = src[r, 3] - vxi
-                uy = src[r, 4] - vyi
-                uz = src[r, 5] - vzi
-                rx = fold(src[r, 0] + src[r, 3] * dtj - xi, lx, hx)
-                ry = fold(src[r, 1] + src[r, 4] * dtj - yi, ly, hy)
-                rz = fold(src[r, 2] + src[r, 5] * dtj - zi, lz, hz)
-                sig = 0.5 * (di + src[r, 7])
+                if base >= 0:
+                    r = base + kk
+                    xj, yj, zj, vxj, vyj, vzj, tj, dj = (cols[0, r], cols[1, r], cols[2, r], cols[3, r], cols[4, r],
+                                                         cols[5, r], cols[6, r], cols[7, r])
+                else:
+                    xj, yj, zj, vxj, vyj, vzj, tj, dj = (st[j, 0], st[j, 1], st[j, 2], st[j, 3], st[j, 4], st[j, 5],
+                                                         st[j, 6], st[j, 7])
+                dtj = t - tj
+                ux = vxj - vxi
+                uy = vyj - vyi
+                uz = vzj - vzi
+                rx = fold(xj + vxj * dtj - xi, lx, hx)
+                ry = fold(yj + vyj * dtj - yi, ly, hy)
+                rz = fold(zj + vzj * dtj - zi, lz, hz)
+                sig = 0.5 * (di + dj)
                 s2 = sig * sig
                 b = rx * ux + ry * uy + rz * uz - s2 * rho * gamma
                 a = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
@@ -973,22 +976,24 @@ def _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best
 
 
 # --- contiguous copies of the long lists' neighbour rows (docs/algorithms.md §7.8) ---------------------------------
-# A list longer than LONG_LIST owns a slot s: rows[s * cap + k] is a copy of st[nbr[L, k]], in list order, kept equal
-# to it bit for bit. Each copied row is an entry e = s * cap + k; the entries holding sphere j form a doubly linked
-# list (rhead[j], rnext[e], rprev[e]; rown[e] = j), the reverse index through which a change of j's row reaches
+# A list longer than LONG_LIST owns a slot s: cols[:, s * cap + k] is a copy of st[nbr[L, k]], in list order, kept
+# equal to it bit for bit, laid out by field (the bound pass of _predict_long reads eight contiguous streams). Each
+# copied row is an entry e = s * cap + k; the entries holding sphere j form a doubly linked list (rhead[j],
+# rnext[e], rprev[e]; rown[e] = j), the reverse index through which a change of j's row reaches
 # every copy of it (a small sphere is listed by one to three large ones). The structure lives for one run_events
 # call: the caller's work between calls (thermostat, full rebuilds) changes rows and lists wholesale.
 
 
 class LongCopies(NamedTuple):
     """The copies of one :func:`run_events` call; see the comment above. ``slot``: (N,) int32 slot of each sphere's
-    list or -1; ``owner``, ``slen``: (S,) the sphere owning each slot (-1: free) and the entries it holds; ``rows``:
-    (S cap, 8) float64; ``rown``, ``rnext``, ``rprev``: (S cap,) int32; ``rhead``: (N,) int32."""
+    list or -1; ``owner``, ``slen``: (S,) the sphere owning each slot (-1: free) and the entries it holds; ``cols``:
+    (8, S cap) float64, the copied rows by field; ``rown``, ``rnext``, ``rprev``: (S cap,) int32; ``rhead``: (N,)
+    int32."""
 
     slot: np.ndarray
     owner: np.ndarray
     slen: np.ndarray
-    rows: np.ndarray
+    cols: np.ndarray
     rown: np.ndarray
     rnext: np.ndarray
     rprev: np.ndarray
@@ -1019,13 +1024,13 @@ def _unlink(e, rhead, rnext, rprev, rown):
 
 
 @njit(cache=True, inline="always")
-def _refresh_copies(st, j, rows, rnext, rhead):
+def _refresh_copies(st, j, cols, rnext, rhead):
     """Rewrite every copy of j's row (after a collision or a wall changed it). Nothing to do for a sphere no long
     list holds: one load of rhead[j] (monodisperse runs never get further)."""
     e = rhead[j]
     while e >= 0:
         for k in range(8):
-            rows[e, k] = st[j, k]
+            cols[k, e] = st[j, k]
         e = rnext[e]
 
 
@@ -1038,7 +1043,7 @@ def _fill_slot(s, L, st, nbr, nnb, lc):
         e = base + k
         j = nbr[L, k]
         for c in range(8):
-            lc.rows[e, c] = st[j, c]
+            lc.cols[c, e] = st[j, c]
         _link(e, j, lc.rhead, lc.rnext, lc.rprev, lc.rown)
     lc.slen[s] = nnb[L]
     lc.owner[s] = L
@@ -1067,7 +1072,7 @@ def long_copies(st, nbr, nnb, enabled):
             count += 1
     slots = count + count // 2 + (8 if count > 0 else 0) if enabled else 0
     lc = LongCopies(np.full(n, -1, dtype=np.int32), np.full(slots, -1, dtype=np.int32),
-                    np.zeros(slots, dtype=np.int32), np.empty((slots * cap, 8)), np.empty(slots * cap, dtype=np.int32),
+                    np.zeros(slots, dtype=np.int32), np.empty((8, slots * cap)), np.empty(slots * cap, dtype=np.int32),
                     np.empty(slots * cap, dtype=np.int32), np.empty(slots * cap, dtype=np.int32),
                     np.full(n, -1, dtype=np.int32))
     if slots > 0:
@@ -1084,7 +1089,7 @@ def _relist_copies(i, st, nbr, nnb, lc):
     and was appended to its new neighbours'). Runs on the copies' own bookkeeping (slen, the reverse index), which
     still describe the lists before the update."""
     cap = nbr.shape[1]
-    rows, rown, rnext, rprev, rhead, slen = lc.rows, lc.rown, lc.rnext, lc.rprev, lc.rhead, lc.slen
+    cols, rown, rnext, rprev, rhead, slen = lc.cols, lc.rown, lc.rnext, lc.rprev, lc.rhead, lc.slen
     # i leaves every copied list it was in: the same swap with the last entry as in nbr
     e = rhead[i]
     while e >= 0:
@@ -1094,7 +1099,7 @@ def _relist_copies(i, st, nbr, nnb, lc):
         last = s * cap + slen[s] - 1
         if e != last:
             for c in range(8):
-                rows[e, c] = rows[last, c]
+                cols[c, e] = cols[c, last]
             j = rown[last]
             _unlink(last, rhead, rnext, rprev, rown)
             _link(e, j, rhead, rnext, rprev, rown)
@@ -1115,7 +1120,7 @@ def _relist_copies(i, st, nbr, nnb, lc):
         if s >= 0:
             e = s * cap + slen[s]
             for c in range(8):
-                rows[e, c] = st[i, c]
+                cols[c, e] = st[i, c]
             _link(e, i, rhead, rnext, rprev, rown)
             slen[s] += 1
         elif nnb[L] > LONG_LIST:
@@ -1137,7 +1142,7 @@ def copies_current(st, nbr, nnb, lc):
             if lc.rown[e] != nbr[L, k]:
                 return False
             for c in range(8):
-                if lc.rows[e, c] != st[nbr[L, k], c]:
+                if lc.cols[c, e] != st[nbr[L, k], c]:
                     return False
     # the reverse index holds exactly the slots' entries
     entries = 0
@@ -1157,7 +1162,7 @@ def copies_current(st, nbr, nnb, lc):
 @njit(cache=True, inline="always")
 def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey, nbr, nnb,
              geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, update_heap, lslot,
-             lrows):
+             lcols):
     """Schedule particle i's next event at time t (its own current event is released first); the arrays and scalars
     are :class:`EventState`'s fields.
 
@@ -1168,7 +1173,7 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     collided (``exclude_image``, a code of :func:`image_collision`). Inlined into its callers: a call would pass
     some 100 words of array descriptors per prediction. Its callers unpack the state once, outside their loops: each
     field read from the tuple takes a reference to its array (an atomic increment and decrement), too slow for the
-    event loop (docs/algorithms.md §7.3). ``lslot``, ``lrows``: :class:`LongCopies`' slot and rows (a list longer
+    event loop (docs/algorithms.md §7.3). ``lslot``, ``lcols``: :class:`LongCopies`' slot and copies (a list longer
     than :data:`LONG_LIST` with a slot is read from its copy).
     """
     n = st.shape[0]
@@ -1215,7 +1220,7 @@ def _predict(i, exclude, exclude_image, t, st, refs, ev_time, ev_type, ev_partne
     elif long_base >= -1:
         best, best_type, best_j = _predict_long(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
                                                 best_type, best_j, st, ev_time, nbr, nnb, lx, ly, lz, hx, hy, hz,
-                                                lrows, long_base)
+                                                lcols, long_base)
     elif cube:
         # the periodic cube: one length and one half-length, in two registers instead of six
         best, best_type, best_j = _predict_pairs(i, exclude, t, xi, yi, zi, vxi, vyi, vzi, di, rho, gamma, best,
@@ -1257,11 +1262,11 @@ def init_events(s, t):
         ev_type[i] = MOVE
         ev_partner[i] = -1
     lslot = np.full(n, -1, dtype=np.int32)  # no copies: one prediction per sphere, a copy would cost what it saves
-    lrows = np.empty((0, 8))
+    lcols = np.empty((8, 0))
     for i in range(n):
         _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                  nbr, nnb, geom, lengths, half, periodic, walls, has_walls, rho0, gamma, skin, rho_list, multi, False,
-                 lslot, lrows)
+                 lslot, lcols)
     heap_build(heap, hpos, hkey, ev_time, n)
 
 
@@ -1290,7 +1295,7 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=
     cells = np.empty(27, dtype=np.int64)
     normal = np.empty(3)
     lc = long_copies(st, nbr, nnb, copies)
-    lslot, lrows, lnext, lhead = lc.slot, lc.rows, lc.rnext, lc.rhead
+    lslot, lcols, lnext, lhead = lc.slot, lc.cols, lc.rnext, lc.rhead
     while True:
         i = heap[0]
         te = hkey[0]
@@ -1310,7 +1315,7 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lcols)
             counters[C_SKIN] += 1
         elif kind == COLLISION:
             t = te
@@ -1360,14 +1365,14 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=
                 counters[C_COLLISIONS] += 1
             else:  # round-off made a predicted contact separate already: nothing to reflect
                 counters[C_NULL] += 1
-            _refresh_copies(st, i, lrows, lnext, lhead)  # both were synchronised and maybe reflected
-            _refresh_copies(st, j, lrows, lnext, lhead)
+            _refresh_copies(st, i, lcols, lnext, lhead)  # both were synchronised and maybe reflected
+            _refresh_copies(st, j, lcols, lnext, lhead)
             _predict(i, j, image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lcols)
             _predict(j, i, 26 - image, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lcols)
         elif kind == WALL:
             t = te
             _sync(st, i, t)
@@ -1386,15 +1391,15 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=
                 counters[C_WALL] += 1
             else:
                 counters[C_NULL] += 1
-            _refresh_copies(st, i, lrows, lnext, lhead)
+            _refresh_copies(st, i, lcols, lnext, lhead)
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lcols)
         else:
             t = te
             _predict(i, -1, -1, t, st, refs, ev_time, ev_type, ev_partner, heap, hpos, hkey,
                      nbr, nnb, geom, lengths, half, periodic, walls, has_walls,
-                     rho0, gamma, skin, rho_list, multi, True, lslot, lrows)
+                     rho0, gamma, skin, rho_list, multi, True, lslot, lcols)
             counters[C_MOVES] += 1
         counters[C_EVENTS] += 1
         _prefetch_row(nbr, heap[0])  # the next event's neighbour list
