@@ -273,7 +273,8 @@ def test_cost_command_prints_the_plan(tmp_path, capsys):
 
 # --- the size distribution's factor (issue 47, docs/algorithms.md §7.9) -------------------------------------------
 #: Slow-down of LS against equal spheres (mono's collisions per CPU second / the mixture's, one invocation per N) of
-#: bidisperse mixtures 30 % small by volume, gamma = 1e-2 from phi = 0.58 to p = 1e12, today's engine: the fit rows
+#: bidisperse mixtures 30 % small by volume, gamma = 1e-2 from phi = 0.58 to p = 1e12, the engine the package's
+#: constants were fitted to (before the copies by field, docs/algorithms.md §7.11): the fit rows
 #: of `benchmarks/cost_fit.py fit` (N = 300 and 1000: `bench_ls.py wide`, 2026-12-05, benchmarks/records/cost_fit;
 #: N = 10^4: docs/algorithms.md §7.6-7.7). (N, size ratio) -> slow-down; 1:5 at N = 300 and 1:10 at N = 1000 are in
 #: the engine's multi-image mode.
