@@ -202,28 +202,36 @@ def test_small_box_equation_of_state_extrapolates_to_carnahan_starling():
     assert 0 < m32 / cs - 1 < 2 / 32
 
 
-def test_image_collision_skips_only_images_that_cannot_beat_the_limit():
-    """image_collision with a limit returns what the unlimited minimisation over the images returns whenever that
-    beats the limit (the same delay and image, to the bit), and otherwise nothing that beats it: the limit prunes only
-    images that could not be accepted. Random pairs in a small box (every image within reach), growing and not."""
+def test_image_collision_skips_only_images_the_caller_would_reject():
+    """image_collision with a deadline ``until`` returns what the minimisation over every image returns whenever the
+    caller could accept that (t + delay <= until, as the caller rounds it): the same delay and image, to the bit; and
+    otherwise nothing the caller could accept. Random pairs in a small box (every image within reach), growing and
+    not, at times where t + delay rounds, and with deadlines at t itself (a partner whose event is now)."""
     from spherejam.engines.kernels import event_driven as ed
 
     rng = np.random.default_rng(4)
     lengths = np.array([3.0, 3.5, 4.0])
     periodic = np.array([True, True, True])
     kept = pruned = 0
-    for _ in range(3000):
-        r = (rng.random(3) - 0.5) * lengths
+    for trial in range(4000):
+        if trial % 4 == 0:  # at contact to round-off: delays far below the ulp of t
+            r = rng.normal(size=3)
+            sig, rho = rng.uniform(0.5, 2.5), 1.0
+            r *= sig * rho * (1.0 + 1e-15 * rng.random()) / np.linalg.norm(r)
+        else:
+            r = (rng.random(3) - 0.5) * lengths
+            sig, rho = rng.uniform(0.5, 2.5), rng.uniform(0.8, 1.0)
         u = rng.normal(size=3)
-        sig, rho, gamma = rng.uniform(0.5, 2.5), rng.uniform(0.8, 1.0), rng.choice([0.0, 1e-3, 0.1, 1.0])
+        gamma = rng.choice([0.0, 1e-3, 0.1, 1.0])
         skip = int(rng.integers(-1, 27))
-        full = ed.image_collision(*r, *u, sig, rho, gamma, lengths, periodic, 10.0, skip, np.inf)
-        lim = rng.exponential(0.3)
-        limited = ed.image_collision(*r, *u, sig, rho, gamma, lengths, periodic, 10.0, skip, lim)
-        if full[0] < lim:
+        t = rng.choice([0.0, 1.0, 1e3, 1e6])
+        until = t if trial % 3 == 0 else t + rng.exponential(0.3)
+        full = ed.image_collision(*r, *u, sig, rho, gamma, lengths, periodic, 10.0, skip, 0.0, np.inf)
+        limited = ed.image_collision(*r, *u, sig, rho, gamma, lengths, periodic, 10.0, skip, t, until)
+        if t + full[0] <= until:
             assert limited == full
             kept += 1
         else:
-            assert not limited[0] < lim
+            assert not t + limited[0] <= until
             pruned += 1
     assert kept > 300 and pruned > 300  # both cases are exercised

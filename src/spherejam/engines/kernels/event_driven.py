@@ -332,16 +332,18 @@ MINIMUM_IMAGE = 13
 
 
 @njit(cache=True, inline="always")
-def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, lengths, periodic, reach, skip, lim):
+def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, lengths, periodic, reach, skip, t, until):
     """``(tau, code)``: :func:`collision_delay` minimised over the periodic images r + (a L_0, b L_1, c L_2), a, b, c
     in -1..1 (0 along a walled axis), of a pair whose minimum image is r, taking only images within ``reach`` along
     every axis and not image ``skip`` (the image that has just collided; -1: none). For boxes smaller than two list
-    cutoffs. Images that cannot collide within ``lim`` are skipped by :func:`_predict_pairs`' own test (receding, or
-    a root above the bound c / (-2 b)), without solving for them: pass inf to minimise over every image."""
+    cutoffs. An image whose collision time t + delay could only come after ``until`` is not solved for: its delay is
+    at least C / (-2 B) (:func:`collision_delay`'s coefficients; :func:`delay_bound`), and where t + that bound >
+    until, rounded as the caller rounds t + delay, the caller would reject the delay anyway, so it chooses as over
+    every image. ``until`` = inf: every image."""
     best = _INF
     best_code = MINIMUM_IMAGE
     s2 = sig * sig
-    a2 = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
+    qa = ux * ux + uy * uy + uz * uz - s2 * gamma * gamma
     px = 1 if periodic[0] else 0
     py = 1 if periodic[1] else 0
     pz = 1 if periodic[2] else 0
@@ -358,10 +360,13 @@ def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, lengths, periodic, 
                 code = (a + 1) + 3 * (b + 1) + 9 * (c + 1)
                 if abs(z) >= reach or code == skip:
                     continue
-                b2 = x * ux + y * uy + z * uz - s2 * rho * gamma
-                c2 = x * x + y * y + z * z - s2 * rho * rho
-                if (a2 >= 0.0) & ((b2 >= 0.0) | ((c2 > 0.0) & (c2 > -2.0 * b2 * lim))):
-                    continue
+                if qa >= 0.0:
+                    qb = x * ux + y * uy + z * uz - s2 * rho * gamma
+                    if qb >= 0.0:
+                        continue  # receding: collision_delay returns inf
+                    qc = x * x + y * y + z * z - s2 * rho * rho
+                    if qc > 0.0 and qb < -1e-150 and t + qc / (-2.0 * qb) > until:
+                        continue
                 tau = collision_delay(x, y, z, ux, uy, uz, sig, rho, gamma)
                 if tau < best:
                     best = tau
@@ -798,7 +803,7 @@ def _predict_images(i, exclude, exclude_image, t, xi, yi, zi, vxi, vyi, vzi, rho
         sig = 0.5 * (di + st[j, 7])
         tau, _ = image_collision(rx, ry, rz, st[j, 3] - vxi, st[j, 4] - vyi, st[j, 5] - vzi, sig, rho, gamma,
                                  lengths, periodic, rho_list * sig + 2.0 * skin, exclude_image if j == exclude else -1,
-                                 min(best, ev_time[j]) - t)
+                                 t, min(best, ev_time[j]))
         tc = t + tau
         if tc < best and tc <= ev_time[j]:
             best = tc
@@ -1343,7 +1348,7 @@ def run_events(s, t, target, count_collisions, t_horizon, counters, acc, copies=
                 sig = 0.5 * (st[i, 7] + st[j, 7])
                 _, image = image_collision(rx, ry, rz, st[j, 3] - st[i, 3], st[j, 4] - st[i, 4], st[j, 5] - st[i, 5],
                                            sig, rho0 + gamma * t, gamma, lengths, periodic,
-                                           2.0 * sig * (rho0 + gamma * t), -1, _INF)
+                                           2.0 * sig * (rho0 + gamma * t), -1, 0.0, _INF)
                 rx += (image % 3 - 1) * lx
                 ry += (image // 3 % 3 - 1) * ly
                 rz += (image // 9 - 1) * lz
