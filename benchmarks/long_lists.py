@@ -78,15 +78,16 @@ def main() -> None:
     ev_time = t + rng.exponential(0.01, a.rows)
     x, v = st[0, :3].copy(), st[0, 3:6].copy()
     copy = st[nbr[0]].T.copy()  # the neighbours' rows in list order, by field (as LongCopies holds them)
+    no_copy = np.empty((8, 0))  # the gather path reads st
     for rho, gamma in ((1.0, 1e-2), (1.0, 1e-4)):
-        two = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, np.empty((8, 0)), -1)
+        two = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, no_copy, -1)
         cop = _two_pass(1, st, ev_time, nbr, nnb, x, v, 10.0, rho, gamma, t, box, copy, 0)
         one = _scalar(1, st, ev_time, pieces, lens, x, v, 10.0, rho, gamma, t, box)
         assert two == one and cop == one, (two, cop, one)
         ns = {}
         for name, f, args in (("two-pass", _two_pass, (nbr, nnb)), ("scalar", _scalar, (pieces, lens)),
                               ("copy", _two_pass, (nbr, nnb))):
-            extra = {"two-pass": (np.empty((8, 0)), -1), "copy": (copy, 0), "scalar": ()}[name]
+            extra = {"two-pass": (no_copy, -1), "copy": (copy, 0), "scalar": ()}[name]
             best = np.inf
             for _ in range(a.repeats):
                 c0 = time.process_time()

@@ -360,6 +360,8 @@ def image_collision(rx, ry, rz, ux, uy, uz, sig, rho, gamma, lengths, periodic, 
                 code = (a + 1) + 3 * (b + 1) + 9 * (c + 1)
                 if abs(z) >= reach or code == skip:
                     continue
+                # branches, not delay_bound: its unguarded division by B = 0 needs the numpy error model, which the
+                # event loop this is inlined into does not use
                 if qa >= 0.0:
                     qb = x * ux + y * uy + z * uz - s2 * rho * gamma
                     if qb >= 0.0:
