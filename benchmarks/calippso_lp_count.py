@@ -16,7 +16,9 @@ Each input is certified on the default path, with the LP cap ``--max-iterations`
 its own (``bench_calippso.validity``). ``--reference-example`` certifies one of CALiPPSO.jl's example inputs (its
 ``Examples/Centers-after-LS--N-*--d-3.dat``, read with ``spherejam import``'s reader; not shipped with spherejam) as
 one more row. One JSON record per input in ``--out``, written atomically (a rerun skips the records it has), with
-the per-LP CSV beside it (``calippso/lp_log.py``). CPU seconds are this process's on a shared machine.
+the per-LP CSV beside it (``calippso/lp_log.py``) and, while it runs, its checkpoint (``NAME.ckpt.h5``): a rerun
+resumes an interrupted certification, from the input kept in ``--inputs`` or rebuilt (the recipes are
+deterministic). CPU seconds are this process's on a shared machine.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 import argparse
 import glob
 import json
+import math
 import statistics
 import sys
 import time
@@ -46,10 +49,13 @@ def parse_recipe(text: str) -> tuple[str, float]:
 
 
 def certify(packing, lp_log: Path, max_iterations: int) -> tuple[Certificate, float]:
+    """Certify on the default path, checkpointed beside the LP log (a killed run resumes there when rerun; the
+    CPU s are then this call's only)."""
     from spherejam.calippso.run import run_calippso
 
     t = time.process_time()
-    result = run_calippso(packing, max_iterations=max_iterations, lp_log=lp_log, progress_interval=60.0)
+    result = run_calippso(packing, max_iterations=max_iterations, lp_log=lp_log, progress_interval=60.0,
+                          checkpoint=lp_log.with_suffix("").with_suffix(".ckpt.h5"))
     cpu = time.process_time() - t
     return Certificate.of(result, cpu), cpu
 
@@ -115,11 +121,26 @@ def run(args) -> None:
                 name = f"{kind}{rate:g}-n{n}-s{seed}"
                 if (out / f"{name}.json").exists():
                     continue
-                t = time.process_time()
-                packing, _ = ls_start(n, PRESSURE, rate, seed, kind=kind)
-                build_cpu = time.process_time() - t
+                packing, build_cpu = built(name, kind, rate, n, seed, args.inputs)
                 cert, cpu = certify(packing, out / f"{name}.lps.csv", args.max_iterations)
                 write(out / f"{name}.json", record(f"{kind}:{rate:g}", n, packing, build_cpu, cert, cpu))
+
+
+def built(name: str, kind: str, rate: float, n: int, seed: int, inputs: str | None):
+    """The input of a recipe, built, or read from ``inputs`` where an earlier run kept it (kept there when built):
+    a rerun after a kill resumes its certification without rebuilding. Returns (packing, CPU s of the build; nan
+    when read)."""
+    from spherejam.core.packing_io import read_packing, write_packing
+
+    kept = Path(inputs) / f"{name}.h5" if inputs else None
+    if kept is not None and kept.exists():
+        return read_packing(kept), math.nan
+    t = time.process_time()
+    packing, _ = ls_start(n, PRESSURE, rate, seed, kind=kind)
+    if kept is not None:
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        write_packing(kept, packing)
+    return packing, time.process_time() - t
 
 
 def summarize(out: Path) -> None:
@@ -149,6 +170,7 @@ def main(argv=None) -> int:
     ap.add_argument("--recipes", nargs="*", default=["ls:1e-3", "mls:1e-2"], help="ls:GAMMA or mls:GAMMA")
     ap.add_argument("--seeds", type=int, nargs="*", default=[1, 2, 3])
     ap.add_argument("--max-iterations", type=int, default=1000)
+    ap.add_argument("--inputs", help="folder where the built inputs are kept and read again (not the records')")
     ap.add_argument("--reference-example", help="a CALiPPSO.jl Examples/Centers-after-LS--N-*--d-3.dat file")
     ap.add_argument("--summarize", action="store_true", help="print the table of the records in --out and stop")
     ap.add_argument("--gaps", action="store_true", help="print the inputs' near-contact counts and stop")
