@@ -48,3 +48,26 @@ def test_gaps_count_near_contacts_without_certifying(tmp_path, capsys):
     # contacts per sphere among ever wider gaps: never fewer, and at p = 1e5 about isostatic (6) by h < 1e-3
     assert len(z) == len(lp_count.GAP_THRESHOLDS) and z == sorted(z) and 4.5 < z[-1] < 7.0
     assert not (tmp_path / "none").exists()  # nothing certified, nothing written
+
+
+def test_a_killed_certification_resumes_from_its_checkpoint_and_its_kept_input(tmp_path):
+    """The input a recipe built is kept in --inputs and read back unchanged; a certification stopped after its first
+    LP leaves its checkpoint beside the LP log, and the next call resumes there (the LP log keeps LP 1) and removes
+    it on convergence."""
+    import math
+
+    import numpy as np
+
+    kept = tmp_path / "inputs"
+    packing, build_cpu = lp_count.built("ls0.01-n64-s1", "ls", 1e-2, 64, 1, str(kept))
+    assert build_cpu >= 0 and (kept / "ls0.01-n64-s1.h5").exists()
+    again, read_cpu = lp_count.built("ls0.01-n64-s1", "ls", 1e-2, 64, 1, str(kept))
+    assert math.isnan(read_cpu) and np.array_equal(again.positions, packing.positions)
+    log = tmp_path / "ls0.01-n64-s1.lps.csv"
+    ckpt = tmp_path / "ls0.01-n64-s1.ckpt.h5"
+    first, _ = lp_count.certify(again, log, 1)
+    assert not first.completed and ckpt.exists()
+    row1 = log.read_text().splitlines()[1]
+    done, _ = lp_count.certify(again, log, 1000)
+    assert done.completed and done.iterations >= 2 and not ckpt.exists()
+    assert log.read_text().splitlines()[1] == row1 and len(log.read_text().splitlines()) == 1 + done.iterations
