@@ -3,9 +3,11 @@ it, and the summary table counts it."""
 
 import importlib
 import json
+import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _BENCHMARKS = str(Path(__file__).resolve().parents[2] / "benchmarks")
@@ -54,10 +56,6 @@ def test_a_killed_certification_resumes_from_its_checkpoint_and_its_kept_input(t
     """The input a recipe built is kept in --inputs and read back unchanged; a certification stopped after its first
     LP leaves its checkpoint beside the LP log, and the next call resumes there (the LP log keeps LP 1) and removes
     it on convergence."""
-    import math
-
-    import numpy as np
-
     kept = tmp_path / "inputs"
     packing, build_cpu = lp_count.built("ls0.01-n64-s1", "ls", 1e-2, 64, 1, str(kept))
     assert build_cpu >= 0 and (kept / "ls0.01-n64-s1.h5").exists()
