@@ -293,3 +293,46 @@ def _third_lp_attempt(monkeypatch, packing):
     run_calippso(packing, solver="hipo", warm_start=False, max_iterations=3)
     monkeypatch.setattr(active_set, "PROGRESS_EVERY", 20)
     return active_set, *calls[1]
+
+
+def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_fast_256):
+    """An attempt that turns rattlers into members starts pivoting again from the new prediction; its pivots come
+    out of the same budget as those before (at N = 10^4 three attempts of the whole budget kept one LP pivoting for
+    over 20 CPU-minutes, docs/calippso.md §5.4). A solve of the creeping N = 256 input that promotes is certified
+    within 500 pivots; given one pivot fewer than all its attempts took, though each attempt alone took fewer than
+    that, it gives up, and its attempts together never pivot more than it was given."""
+    import spherejam.calippso.active_set as active_set
+    import spherejam.calippso.run as run_module
+
+    calls = []
+    solve = run_module.solve_active_set
+
+    def recorded(*args, **kwargs):
+        sol = solve(*args, **kwargs)
+        calls.append((args, kwargs, sol))
+        return sol
+
+    monkeypatch.setattr(run_module, "solve_active_set", recorded)
+    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=12)
+    promoting = [(a, k) for a, k, sol in calls if sol is not None and "promoted" in sol.method]
+    assert promoting, [sol and sol.method for _, _, sol in calls]
+    args, kwargs = promoting[0]
+
+    pivots: list[int] = []  # of each attempt that reached a vertex
+    pivot = active_set._pivot
+
+    def counted(system, feasibility, max_pivots):
+        out = pivot(system, feasibility, max_pivots)
+        pivots.append(out[2])
+        return out
+
+    monkeypatch.setattr(active_set, "_pivot", counted)
+    whole = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
+    assert whole is not None and "promoted" in whole.method
+    assert len(pivots) >= 2 and min(pivots) >= 1 and sum(pivots) <= 500, pivots
+    short = sum(pivots) - 1
+    assert max(pivots) <= short  # each attempt alone would fit in the smaller budget
+    pivots.clear()
+    why: list[str] = []
+    assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": short, "why": why}) is None
+    assert sum(pivots) <= short, (pivots, why)

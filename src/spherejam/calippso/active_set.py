@@ -108,6 +108,18 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
 #: from N = 4096 on): each costs three sparse solves, a small fraction of an interior-point solve, and a prediction
 #: is seldom off by more than ~100 rows (docs/calippso.md §5.2). With a warm start at hand, 10 (the default).
 MAX_PIVOTS = 500
+
+
+def network_pivot_limit(n: int) -> int:
+    """Pivots allowed to an active-set solve of the previous LP's network where HiGHS has no warm start (N
+    particles): :data:`MAX_PIVOTS` up to N = 4000, then falling as 1/N to 100 (200 at N = 10^4, 122 at N = 16384).
+
+    Its alternative is one cold HiPO solve, and a pivot's share of that grows with N (the basis's LU fills in): at
+    N = 10^4 a pivot costs ~0.6 s and the LP ~75 s, so the cap bounds a failed attempt's loss to ~1.5 such solves
+    (docs/calippso.md §5.4). An interior point's vertex keeps :data:`MAX_PIVOTS`: its alternative is a crossover,
+    which costs several cold solves.
+    """
+    return max(100, min(MAX_PIVOTS, 2_000_000 // max(int(n), 1)))
 #: Duals above -DUAL_ZERO x their median magnitude count as >= 0 (round-off of an exactly zero force).
 DUAL_ZERO = 1e-12
 #: Primal pivots by the steepest dual before Bland's rule takes over (which cannot cycle on a degenerate vertex).
@@ -278,22 +290,28 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     predicts s components of stable particles held at their lower / upper s bound: each one's bound row starts in the
     basis in place of a contact, and leaves it by a pivot like a contact where its multiplier is negative (the
     returned solution's ``held`` says which components the final vertex holds). Anything else -- a singular
-    system, more than ``max_pivots`` pivots -- returns None and the caller solves the LP with HiGHS; the reasons are
-    appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active set barely
-    changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
+    system, more than ``max_pivots`` pivots in all attempts -- returns None and the caller solves the LP with HiGHS;
+    the reasons are appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active
+    set barely changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
     """
     why = [] if why is None else why
     t0 = time.perf_counter()
+    # one budget for the whole solve: an attempt after a promotion pivots from scratch, and at N = 10^4 three attempts
+    # of the full budget cost several HiGHS solves (docs §5.4)
+    budget = allowed = 10 if max_pivots is None else max_pivots
     for promotion in range(MAX_PROMOTIONS + 1):
         stuck: dict = {}
         sol = _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound=s_bound, pinned=pinned,
-                            inflation_bounds=inflation_bounds, feasibility=feasibility, max_pivots=max_pivots,
+                            inflation_bounds=inflation_bounds, feasibility=feasibility, max_pivots=budget,
                             rattler_s=rattler_s, fixed=fixed, why=why, stuck=stuck)
-        if sol is not None or not stuck or promotion == MAX_PROMOTIONS:
+        budget -= stuck.get("pivots", 0)
+        if sol is not None or "rattlers" not in stuck or promotion == MAX_PROMOTIONS:
             if sol is not None:
                 sol.solve_time = time.perf_counter() - t0  # the attempts before a promotion included
                 sol.method += f"+{promotion}promoted" if promotion else ""
             return sol
+        if budget <= 0:
+            return _fail(why, f"no pivots left of {allowed} to place the rattlers again")
         promoted = _promote(rij, sigma2, pi, pj, n, rattler, stuck)
         if promoted is None:
             return _fail(why, "a predicted rattler that found no place has fewer than d rows with the network")
@@ -327,13 +345,15 @@ def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
 
 def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
                   feasibility, max_pivots, rattler_s, fixed, why, stuck):
-    """One attempt of :func:`solve_active_set`; when only the rattlers' placement fails, ``stuck`` receives the
-    vertex (``s``, ``inflation``) and the rattlers still in violated rows (``rattlers``)."""
+    """One attempt of :func:`solve_active_set`, of at most ``max_pivots`` pivots; ``stuck`` receives the pivots
+    taken (``pivots``) and, when only the rattlers' placement fails, the vertex (``s``, ``inflation``) and the
+    rattlers still in violated rows (``rattlers``)."""
     t0 = time.perf_counter()
     try:
         system = _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
                                  fixed)
-        u, lam, pivots, relaxed, bound_pivots = _pivot(system, feasibility, 10 if max_pivots is None else max_pivots)
+        u, lam, pivots, relaxed, bound_pivots = _pivot(system, feasibility, max_pivots)
+        stuck["pivots"] = pivots
         inflation = max(float(u[-1]), inflation_bounds[0])
         s = _vertex_displacements(system, u, rattler_s, s_bound, pinned, (n, rij.shape[1]))
         contact_rows = system.stable_rows[system.basis[system.basis < system.m_pair]]

@@ -32,7 +32,7 @@ from ..core.history import History
 from ..core.neighbours import Frame, pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
-from .active_set import MAX_PIVOTS, network_prediction, solve_active_set, vertex_prediction
+from .active_set import network_pivot_limit, network_prediction, solve_active_set, vertex_prediction
 from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .creep import creep_message, creeping
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
@@ -770,11 +770,11 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
         keys, rattler, held = loop.predicted
         sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, keys, rattler, s_bound=lp.s_bound,
                                pinned=_pins(loop, cfg), inflation_bounds=(lp.inflation_min, lp.inflation_max), why=why,
-                               max_pivots=MAX_PIVOTS if loop.basis is None else None, fixed=held)
+                               max_pivots=network_pivot_limit(cfg.n) if loop.basis is None else None, fixed=held)
         if sol is None:
             tally.lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
-            _log.info("calippso it %d: the previous contact network is not this LP's vertex: %s",
-                      iteration + 1, "; ".join(why))
+            _log.info("calippso it %d: the previous contact network is not this LP's vertex (%.1f s): %s",
+                      iteration + 1, time.perf_counter() - t_try, "; ".join(why))
     if sol is None:
         sol = _solve_highs(lp, loop, cfg, tally, iteration)
     return sol
@@ -954,7 +954,7 @@ def _force_lp(run: _Run, cfg: _Settings, fine_tune: bool):
             if loop.predicted is not None and loop.predicted[2] is None:  # an isostatic network, no bound held
                 fine = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, *loop.predicted[:2], s_bound=R,
                                         pinned=_pins(loop, cfg), inflation_bounds=(-math.inf, math.inf),
-                                        max_pivots=MAX_PIVOTS if loop.basis is None else None)
+                                        max_pivots=network_pivot_limit(cfg.n) if loop.basis is None else None)
             if fine is None:
                 fine = solve_lp(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, s_bound=R, pinned=_pins(loop, cfg),
                                 inflation_bounds=(-math.inf, math.inf), tolerance=cfg.solver_tolerance,
