@@ -1,4 +1,4 @@
-"""Build the CALiPPSO benchmark inputs (docs/calippso.md §9) as packing files; they are never committed.
+"""Build the CALiPPSO benchmark inputs (docs/calippso.md §9) as packing files (kept only as unfinished runs' state).
 
     python benchmarks/calippso_fixtures.py                  # all of them, smallest first, into benchmarks/fixtures/
     python benchmarks/calippso_fixtures.py --only ls1024_p1e5 ls1024_p1e12
@@ -7,7 +7,9 @@
 Each fixture is made by spherejam's Lubachevsky-Stillinger engine (d = 3) from a Poisson start, with the seed, the
 compression rate gamma and the stop pressure of its recipe, and written through core.atomic (a half-written file
 never appears). An existing file is kept, so an interrupted build continues with the next missing fixture; the LS run
-itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes.
+itself checkpoints beside the file (``NAME.h5.ckpt``) and resumes. The inputs and checkpoints of unfinished whole
+runs at N = 1e4 are kept in benchmarks/records/calippso/state/ (its README says how to resume them), since the
+development machines are not kept between sittings.
 
 - ``ls1024_p1e5``: plain LS to p = 1e5 (the reference's example inputs are LS outputs at p = 1e5; a fast one,
   whose true pressure is ~10 times lower: it creeps);
