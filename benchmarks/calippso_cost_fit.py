@@ -55,7 +55,7 @@ def power_law(a: tuple[int, float], b: tuple[int, float]) -> tuple[float, float]
 
 #: The vertex path's mean per LP at N = 1e4 over the three inputs measured there in issue 30 (docs/calippso.md §9:
 #: 389, 357 and 194 s), the anchor of the model until 2026-12-05. The same LS input's vertex LP
-#: took 60 s with today's code (ls10000_p1e12_s0.lps.csv, LP 1), so it is shown for the record, not fitted.
+#: took 60 s with today's code (ls10000_p1e12_s0.interior.lps.csv, LP 1), so it is shown for the record, not fitted.
 VERTEX_1E4_ISSUE30 = (10_000, 313.0)
 
 
@@ -66,8 +66,10 @@ def main() -> int:
             ("10 N = 1024 LS starts at p = 1e5, whole runs (paths/ls1024, auto)", lambda: pooled("ls1024", "auto")),
             ("ls4096_p1e12 (N = 4096), every LP of the vertex path so far (run not ended)",
              lambda: lp_rows("ls4096_p1e12.vertex.lps.csv", None, 4096)),
-            ("ls10000_p1e12_s0 (N = 1e4), its vertex LP (run not ended)",
-             lambda: lp_rows("ls10000_p1e12_s0.lps.csv", None, 10_000, exclude="interior")),
+            ("ls10000_p1e12_s0 (N = 1e4), its LPs on the default path (run not ended)",
+             lambda: lp_rows("ls10000_p1e12_s0.lps.csv", None, 10_000)),
+            ("ls10000_p1e12_s03_gamma1e-3 (N = 1e4, sigma = 0.3), its LPs on the default path (run not ended)",
+             lambda: lp_rows("ls10000_p1e12_s03_gamma1e-3.lps.csv", None, 10_000)),
             ("three N = 1e4 inputs, 52 LPs, issue 30's code (docs/calippso.md §9; not fitted)",
              lambda: VERTEX_1E4_ISSUE30),
             ("ls16384_p1e5 (N = 16384), its LPs on the vertex path (LP 1, LPs 43 on; run not ended)",
@@ -81,7 +83,7 @@ def main() -> int:
             ("ls4096_p1e12 (N = 4096), its interior steps so far (run not ended)",
              lambda: lp_rows("ls4096_p1e12.interior.lps.csv", "interior", 4096)),
             ("ls10000_p1e12_s0 (N = 1e4), its interior steps so far (run not ended)",
-             lambda: lp_rows("ls10000_p1e12_s0.lps.csv", "interior", 10_000)),
+             lambda: lp_rows("ls10000_p1e12_s0.interior.lps.csv", "interior", 10_000)),
             ("ls16384_p1e5 (N = 16384), its interior steps so far (run not ended)",
              lambda: lp_rows("ls16384_p1e5.lps.csv", "interior", 16_384)),
         ],
@@ -90,7 +92,7 @@ def main() -> int:
     # warm start, no active-set shortcut: spherejam.calippso.lp.WARM_START_MAX_N), so it has one power law through the
     # whole runs at N = 1000 and the N = 4096 LPs, and another from there through the largest N measured; interior
     # steps are one law through N = 1000 and the largest N
-    anchors = {"vertex": [0, 2, 5], "interior": [0, 4]}
+    anchors = {"vertex": [0, 2, 6], "interior": [0, 4]}
     for path, candidates in rows.items():
         measured = []
         for label, get in candidates:

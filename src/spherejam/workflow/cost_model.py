@@ -81,13 +81,13 @@ CALIPPSO_LPS_EXPONENT = 0.96
 #: INTERIOR_STEPS_MIN_N when it is set), a power law in two segments joined at CALIPPSO_COLD_MIN_N. Below it most LPs
 #: are warm-started or active-set solves: through the mean of 30 archived N = 1000 MLS outputs certified whole (577
 #: LPs, start-up and force LPs included) and the vertex path's LPs at N = 4096. From it on every LP is a cold HiPO
-#: solve, and the time grows more slowly: through the N = 4096 LPs and the N = 16384 run's vertex-path LPs. Fitted by
-#: benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
+#: solve, and the time grows more slowly: through the N = 4096 LPs and the N = 16384 run's 27 vertex-path LPs (354 s,
+#: three of them crossover fallbacks of 1200-1500 s). Fitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
 CALIPPSO_LP_SECONDS = 0.52
 CALIPPSO_EXPONENT = 2.81
 CALIPPSO_COLD_MIN_N = 4096  # spherejam.calippso.lp.WARM_START_MAX_N, not imported: this module stays light
-CALIPPSO_COLD_LP_SECONDS = 2.44
-CALIPPSO_COLD_EXPONENT = 1.71
+CALIPPSO_COLD_LP_SECONDS = 2.00
+CALIPPSO_COLD_EXPONENT = 1.851
 #: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
 #: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 29 of the same N = 1000 MLS outputs
 #: (268 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
