@@ -105,21 +105,10 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
 
 
 #: Pivots an active-set solve may take where HiGHS has no warm start to offer (an interior point's vertex; every LP
-#: from N = 4096 on): each costs three sparse solves, a small fraction of an interior-point solve, and a prediction
-#: is seldom off by more than ~100 rows (docs/calippso.md §5.2). With a warm start at hand, 10 (the default).
+#: from N = 4096 on, the previous network's capped by network_pivot_limit): each costs three sparse solves, a small
+#: fraction of an interior-point solve, and a prediction is seldom off by more than ~100 rows (docs/calippso.md
+#: §5.2). With a warm start at hand, 10 (the default).
 MAX_PIVOTS = 500
-
-
-def network_pivot_limit(n: int) -> int:
-    """Pivots allowed to an active-set solve of the previous LP's network where HiGHS has no warm start (N
-    particles): :data:`MAX_PIVOTS` up to N = 4000, then falling as 1/N to 100 (200 at N = 10^4, 122 at N = 16384).
-
-    Its alternative is one cold HiPO solve, and a pivot's share of that grows with N (the basis's LU fills in): at
-    N = 10^4 a pivot costs ~0.6 s and the LP ~75 s, so the cap bounds a failed attempt's loss to ~1.5 such solves
-    (docs/calippso.md §5.4). An interior point's vertex keeps :data:`MAX_PIVOTS`: its alternative is a crossover,
-    which costs several cold solves.
-    """
-    return max(100, min(MAX_PIVOTS, 2_000_000 // max(int(n), 1)))
 #: Duals above -DUAL_ZERO x their median magnitude count as >= 0 (round-off of an exactly zero force).
 DUAL_ZERO = 1e-12
 #: Primal pivots by the steepest dual before Bland's rule takes over (which cannot cycle on a degenerate vertex).
@@ -135,6 +124,18 @@ MOST_FIXED_PER_PIVOT = 10
 #: every later solve, so a fresh LU pays off after a few dozen at small N. A large basis waits until the update
 #: vectors hold as many numbers as its LU factors, because its LU fills in faster than N grows (docs/calippso.md §5.4).
 REFACTOR_EVERY = 50
+
+
+def network_pivot_limit(n: int) -> int:
+    """Pivots allowed to an active-set solve of the previous LP's network where HiGHS has no warm start (N
+    particles): :data:`MAX_PIVOTS` up to N = 4000, then falling as 1/N to 100 (200 at N = 10^4, 122 at N = 16384).
+
+    Its alternative is one cold HiPO solve, and a pivot's share of that grows with N (the basis's LU fills in): at
+    N = 10^4 a pivot costs ~0.6 s and the LP ~75 s, so the cap bounds a failed attempt's loss to ~1.5 such solves
+    (docs/calippso.md §5.4). An interior point's vertex keeps :data:`MAX_PIVOTS`: its alternative is a crossover,
+    which costs several cold solves.
+    """
+    return max(100, min(MAX_PIVOTS, 2_000_000 // max(int(n), 1)))
 
 
 class BasisInverse:
