@@ -105,7 +105,7 @@ def test_calippso_model_matches_the_measured_certification_times(monkeypatch):
     assert cr.calippso_lp_seconds(16384) == pytest.approx(354.0, rel=0.05)
     assert cr.calippso_lp_seconds(1000, interior_steps=True) == pytest.approx(0.787, rel=0.05)
     assert cr.calippso_lp_seconds(16384, interior_steps=True) == pytest.approx(120.0, rel=0.05)
-    # a vertex-path certification at N = 10^4 (~4.5 h expected) fits in one job within the 24 h ceiling, as with
+    # a vertex-path certification at N = 10^4 (~5.1 h expected) fits in one job within the 24 h ceiling, as with
     # interior steps (~1.8 h), which cost less than half as much
     monkeypatch.delenv("SPHEREJAM_MAX_RUNTIME", raising=False)
     assert cr.runtime_minutes("calippso", 10000) < cr.MAX_RUNTIME_MINUTES

@@ -131,8 +131,9 @@ def network_pivot_limit(n: int) -> int:
     particles): :data:`MAX_PIVOTS` up to N = 4000, then falling as 1/N to 100 (200 at N = 10^4, 122 at N = 16384).
 
     Its alternative is one cold HiPO solve, and a pivot's share of that grows with N (the basis's LU fills in): at
-    N = 10^4 a pivot costs ~0.6 s and the LP ~75 s, so the cap bounds a failed attempt's loss to ~1.5 such solves
-    (docs/calippso.md §5.4). An interior point's vertex keeps :data:`MAX_PIVOTS`: its alternative is a crossover,
+    N = 10^4 a pivot costs 0.6-2 s (its LU and updates included) and the LP 75-95 s, so the cap bounds a failed
+    attempt's loss to a few such solves, where 500 pivots in each of three attempts cost over 20 (docs/calippso.md
+    §5.4). An interior point's vertex keeps :data:`MAX_PIVOTS`: its alternative is a crossover,
     which costs several cold solves.
     """
     return max(100, min(MAX_PIVOTS, 2_000_000 // max(int(n), 1)))
