@@ -336,3 +336,31 @@ def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_f
     why: list[str] = []
     assert active_set.solve_active_set(*args, **{**kwargs, "max_pivots": short, "why": why}) is None
     assert sum(pivots) <= short, (pivots, why)
+
+
+def test_a_particle_held_against_its_bound_by_d_contacts_is_stable_in_a_periodic_box():
+    """The s bound is a wall in the rattler analysis of a prediction (docs/calippso.md §5.4). In a periodic box it
+    used to be peeled like a particle once fewer than d + 1 held components remained, and with it every particle
+    the bound holds against d contacts: at N = 10^4, sigma = 0.3, one such sphere took five more with it, the
+    prediction was one contact short, and every LP fell back to a second HiPO solve with crossover. A rattler resting
+    at its bound with a round-off multiplier holds nothing."""
+    from spherejam.calippso.active_set import interior_point_prediction
+
+    n, dim, s_bound = 10, 3, 1e-3
+    core = [(a, b) for a in range(1, 9) for b in range(a + 1, 9)]  # particles 1-8: 7 contacts each
+    pairs = np.array(core + [(0, 1), (0, 2), (0, 3), (4, 9), (5, 9), (6, 9)])  # 0 and 9: d contacts
+    pi, pj = pairs[:, 0], pairs[:, 1]
+    duals = np.ones(len(pairs))
+    slack = np.full(len(pairs), 1e-12)
+    sigma2 = np.ones(len(pairs))
+    s = np.zeros((n, dim))
+    col_dual = np.zeros((n, dim))
+    s[0, 2], col_dual[0, 2] = s_bound, -1e-3  # pressed against its upper bound
+    s[9, 0], col_dual[9, 0] = s_bound, 1e-19  # resting there with no force: a rattler
+    keys, rattler, fixed = interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s, col_dual, s_bound,
+                                                     pinned=1)
+    assert not rattler[0] and fixed[0, 2] == 1
+    assert np.count_nonzero(fixed) == 1  # not the rattler
+    assert rattler[9] and not np.any(rattler[:9])
+    # the square system: d (N_s - 1) + 1 unknowns, of which the held component's bound row is one
+    assert keys.size == dim * (9 - 1) + 1 - 1

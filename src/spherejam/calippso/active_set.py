@@ -61,10 +61,11 @@ def _walled_network(ci, cj, held, n, pins=None):
     dim = held.shape[1]
     wall_i = np.nonzero(held)[0]
     pins = as_pins(0, n, dim) if pins is None else pins
-    walls = None
-    if pins.spheres < n:  # a container's wall nodes stay in the core
-        walls = np.zeros(n + 1, dtype=np.int64)
-        walls[pins.spheres:] = dim + 1
+    # the bound (node n) and a container's wall nodes stay in the core: with fewer than d + 1 held components among
+    # stable particles the bound node would be peeled, and with it every particle that the bound holds against d
+    # contacts (docs/calippso.md §5.4)
+    walls = np.zeros(n + 1, dtype=np.int64)
+    walls[pins.spheres:] = dim + 1
     rattler = rattler_mask(n + 1, np.concatenate([ci, wall_i]), np.concatenate([cj, np.full(wall_i.size, n)]),
                            dim + 1, walls)[:n]
     held[rattler] = 0
@@ -93,7 +94,10 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
         # scales of a bound multiplier (~ 2 sigma lambda, A's entries are 2 r) and of a distance to the bound (s_bound)
         sigma = math.sqrt(float(np.median(sigma2)))
         distance = np.maximum(s_bound - np.abs(s), 0.0) / s_bound
-        bound_score = np.abs(col_dual) * m * sigma / 2.0 / np.maximum(distance, 1e-300)
+        # a multiplier at round-off (a rattler's component resting at its bound) holds nothing, even at distance 0
+        multiplier = np.abs(col_dual)
+        multiplier = np.where(multiplier > DUAL_ZERO * sigma * float(np.max(duals, initial=0.0)), multiplier, 0.0)
+        bound_score = multiplier * m * sigma / 2.0 / np.maximum(distance, 1e-300)
         fixed = np.where(bound_score > 1.0, np.sign(s), 0).astype(np.int8)
     rattler, n_stable, nu = _walled_network(pi[near], pj[near], fixed, n,
                                             None if pinned is None else as_pins(pinned, n, dim))
