@@ -364,3 +364,19 @@ def test_a_particle_held_against_its_bound_by_d_contacts_is_stable_in_a_periodic
     assert rattler[9] and not np.any(rattler[:9])
     # the square system: d (N_s - 1) + 1 unknowns, of which the held component's bound row is one
     assert keys.size == dim * (9 - 1) + 1 - 1
+
+
+def test_a_dual_pivot_at_a_degenerate_vertex_takes_the_largest_alpha_of_the_zero_duals():
+    """Dual simplex at a degenerate vertex: rows whose duals are 0 can all leave at a step of 0. One whose dual
+    round-off made -1e-18 used to come first whatever its alpha, and a tiny alpha made the new basis singular (LP 23
+    of the N = 10^4 sigma = 0.3 LS output, docs/calippso.md §5.4). Harris's ratio test takes the largest alpha
+    among them."""
+    from scipy.sparse import csr_matrix
+
+    from spherejam.calippso.active_set import BasisInverse, _dual_pivot
+
+    violated = [1.0, 2e-9, 1.0]  # alpha = B^-T a_r = a_r with B = I
+    binv = BasisInverse(csr_matrix(np.vstack([np.eye(3), violated])), np.arange(3))
+    lam = np.array([0.5, -1e-18, 0.0])  # the second and third duals are 0, the second to round-off
+    _dual_pivot(binv, binv.matrix, 3, lam, 0, 3)
+    assert binv.basis.tolist() == [0, 1, 3]  # the third row left (alpha 1), not the second (alpha 2e-9)

@@ -526,7 +526,14 @@ def _dual_pivot(binv: BasisInverse, a_all, r: int, lam, pivot: int, m_pair: int)
     candidates = np.flatnonzero(alpha > max(1e-14, 1e-9 * float(np.max(np.abs(alpha)))))
     if candidates.size == 0:
         raise _NoVertex(f"a violated row cannot be satisfied after {pivot} pivots: the LP looks infeasible")
-    k = int(candidates[np.argmin(lam[candidates] / alpha[candidates])])
+    # Harris's ratio test: of the rows whose dual reaches 0 within round-off of the first, the largest alpha. At a
+    # degenerate vertex many duals are 0, some -1e-18; ranked by lam / alpha as they are, such a one with a tiny
+    # alpha came first, and the new basis was singular (docs §5.4)
+    lam_c = np.maximum(lam[candidates], 0.0)
+    alpha_c = alpha[candidates]
+    zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+    tied = np.flatnonzero(lam_c / alpha_c <= np.min((lam_c + zero) / alpha_c))
+    k = int(candidates[tied[np.argmax(alpha_c[tied])]])
     try:
         binv.replace(k, r)
     except RuntimeError:
