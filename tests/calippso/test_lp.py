@@ -259,3 +259,48 @@ def test_a_checkpoint_resumes_with_other_trajectory_settings(ls_jammed_256, tmp_
     params = done.packing.metadata["parameters"]
     assert params["interior_steps"] is True
     assert params["trajectory_changes"] == [{"from_lp": 2, "interior_steps": True}]
+
+
+@pytest.mark.parametrize("solver", ["ipx", "hipo"])
+def test_an_lp_in_scaled_units_is_the_same_lp(ls_jammed_256, solver):
+    """HiGHS gets a near-converged LP in Gamma - 1 and units of NEAR_CONVERGED_SCALE (docs/calippso.md §5.8): the
+    solution mapped back is the unscaled LP's (Gamma to 1e-12, the same active rows, the same forces), and the
+    certified vertex's check passes in the LP's own units."""
+    from spherejam.calippso.lp import NEAR_CONVERGED_SCALE
+
+    x, box = ls_jammed_256.positions, ls_jammed_256.box
+    i, j, _ = pairs_in_cutoff(x, box, 1.35)
+    rij, sigma2 = pair_vectors(x, box, i, j), (0.5 * (ls_jammed_256.diameters[i] + ls_jammed_256.diameters[j])) ** 2
+    kw = dict(s_bound=5e-3, pinned=0, inflation_bounds=(1.0, 1.7), solver=solver, crossover=solver == "ipx")
+    plain = solve_lp(rij, sigma2, i, j, 256, **kw)
+    scaled = solve_lp(rij, sigma2, i, j, 256, **kw, scale=NEAR_CONVERGED_SCALE)
+    assert scaled.method.startswith("vertex" if solver == "hipo" else "ipm")
+    assert scaled.inflation == pytest.approx(plain.inflation, rel=0, abs=1e-12) and scaled.inflation > 1.0
+    np.testing.assert_array_equal(scaled.duals > 0, plain.duals > 0)
+    np.testing.assert_allclose(scaled.duals, plain.duals, rtol=1e-6, atol=1e-12)
+    slack = np.einsum("ij,ij->i", rij, rij + 2.0 * (scaled.s[i] - scaled.s[j])) - scaled.inflation * sigma2
+    assert slack.min() >= -1e-12
+
+
+def test_near_converged_cold_lps_are_solved_scaled_and_certify(ls_jammed_256, monkeypatch):
+    """With the scaled solves' threshold at this packing's N (4096 by default, where every LP is a cold solve), the
+    LPs after one whose sqrt(Gamma) - 1 fell below SCALED_BELOW go to HiGHS scaled, the others unscaled, and the run
+    ends on a valid certificate."""
+    import spherejam.calippso.run as run_module
+    from spherejam.calippso.lp import NEAR_CONVERGED_SCALE
+
+    scales = []
+    solve = run_module.solve_lp
+
+    def recorded(*args, **kwargs):
+        scales.append(kwargs.get("scale", 1.0))
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(run_module, "solve_lp", recorded)
+    monkeypatch.setattr(run_module, "SCALED_MIN_N", ls_jammed_256.n)
+    result = run_calippso(ls_jammed_256, solver="hipo", warm_start=False, active_set=False)
+    assert_jammed(result, 3)
+    assert NEAR_CONVERGED_SCALE in scales and 1.0 in scales, scales
+    previous = result.history["sqrt_inflation_minus_1"][:-1]  # before LPs 2 on
+    expected = [NEAR_CONVERGED_SCALE if g < run_module.SCALED_BELOW else 1.0 for g in previous]
+    assert scales[1:result.iterations] == expected

@@ -41,6 +41,10 @@ PREDICTED_MAX_N = 4096
 #: Primal simplex pivots allowed from a predicted basis before the second interior point takes over: about the
 #: break-even with that solve at N = 1024-2048 (docs/calippso.md §5.2).
 PREDICTED_PIVOT_LIMIT = 1500
+#: The unit of a near-converged LP as HiGHS gets it (``solve_lp(scale=...)``): its unknowns s and Gamma - 1 in units
+#: of this many (largest) diameters, resp. 1, so that HiGHS's absolute tolerances (1e-9) act at 1e-14 in the LP's own
+#: units, below the contacts' gaps there and above the round-off of |r|^2 - sigma^2 (docs/calippso.md §5.8).
+NEAR_CONVERGED_SCALE = 1e-5
 
 
 def resolve_solver(solver: str, n: int) -> str:
@@ -209,7 +213,7 @@ def warm_pivot_limit(n: int) -> int:
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
-             crossover: bool = True, cuts: bool = False, interior: bool = False) -> LPSolution:
+             crossover: bool = True, cuts: bool = False, interior: bool = False, scale: float = 1.0) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0 (or the
@@ -226,12 +230,15 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     the LP is solved once more with dual simplex (IPX after a simplex cold solve) before giving up
     (docs/calippso.md §6). With ``interior`` the interior point itself is returned (method "interior", no vertex,
     no basis: an intermediate step, docs/calippso.md §10) once its rows and bounds are checked; its duals are not a
-    vertex's and certify nothing. Should it fail, the attempts above follow.
+    vertex's and certify nothing. Should it fail, the attempts above follow. With ``scale`` < 1 HiGHS gets the LP in
+    Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's cancellation) and in units of
+    ``scale`` (:data:`NEAR_CONVERGED_SCALE`): the same LP, its solution mapped back, for LPs whose gains are below
+    HiGHS's absolute tolerances (docs/calippso.md §5.8).
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
 
-    model = _Model.build(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds)
+    model = _Model.build(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, scale)
     opts = _highs_options(tolerance, options, solver, threads)
     _limit_blas_threads(threads)
     failures = []
@@ -288,7 +295,9 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
 @dataclass
 class _Model:
     """One CALiPPSO LP as HiGHS gets it (``lp``), with what checking its solutions needs: the pair rows' right-hand
-    side, the column bounds (N d displacement components, then Gamma) and the rows' keys."""
+    side, the column bounds (N d displacement components, then Gamma) and the rows' keys. With ``scale`` < 1 HiGHS's
+    unknowns are (s, Gamma - 1) / scale and its rows (A x - sigma^2) / scale <= (|r|^2 - sigma^2) / scale; the
+    duals are the same (the cost of Gamma - 1 is that of Gamma), and :meth:`point` maps a solution back."""
 
     rij: np.ndarray
     sigma2: np.ndarray
@@ -303,9 +312,10 @@ class _Model:
     lower: np.ndarray
     upper: np.ndarray
     keys: np.ndarray
+    scale: float = 1.0
 
     @classmethod
-    def build(cls, rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds) -> _Model:
+    def build(cls, rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, scale: float = 1.0) -> _Model:
         dim = rij.shape[1]
         m = rij.shape[0]
         ncol = n * dim + 1
@@ -318,9 +328,16 @@ class _Model:
         lower[fixed] = 0.0
         upper[fixed] = 0.0
         lower[-1], upper[-1] = inflation_bounds
-        lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
+        if scale == 1.0:
+            lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
+        else:
+            shift = np.zeros(ncol)
+            shift[-1] = 1.0
+            gap = rhs - sigma2
+            lp = highs_model(cost, (lower - shift) / scale, (upper - shift) / scale, np.full(m, -np.inf),
+                             gap / scale, start, index, value)
         return cls(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, lp, rhs, lower, upper,
-                   pair_keys(pi, pj, n))
+                   pair_keys(pi, pj, n), scale)
 
     @property
     def dim(self) -> int:
@@ -329,6 +346,16 @@ class _Model:
     @property
     def ncol(self) -> int:
         return self.lower.size
+
+    def point(self, sol) -> tuple[np.ndarray, float, np.ndarray]:
+        """A HiGHS solution's (s (N, d), Gamma, every row's slack |r|^2 - A x) in the LP's own units."""
+        x = np.asarray(sol.col_value) * self.scale
+        x[-1] += 1.0 if self.scale != 1.0 else 0.0
+        # the slack as HiGHS's row activity gives it: exact in the scaled rows, where it is a gap, not a difference
+        # of squares
+        gap = self.rhs - self.sigma2 if self.scale != 1.0 else self.rhs
+        slack = gap - np.asarray(sol.row_value) * self.scale
+        return x[:-1].reshape(self.n, self.dim).copy(), float(x[-1]), slack
 
     def problem(self, s, inflation, duals, tolerance) -> str | None:
         """What is wrong with a solution (:func:`_vertex_problem`), or None."""
@@ -388,9 +415,8 @@ def _certified_vertex(h, model: _Model, tolerance: float):
     vertex = guess = predicted = None
     why: list[str] = []
     if sol.value_valid and sol.dual_valid:
-        slack = model.rhs - np.asarray(sol.row_value)
+        s_ipm, _, slack = model.point(sol)
         duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
-        s_ipm = np.asarray(sol.col_value)[:-1].reshape(n, dim)
         guess = interior_point_prediction(model.pi, model.pj, n, dim, model.sigma2, duals, slack, s_ipm,
                                           np.asarray(sol.col_dual)[:-1].reshape(n, dim), model.s_bound, pinned)
         if guess is not None:
@@ -424,24 +450,22 @@ def _interior_point(h, model: _Model, tolerance: float):
     sol = h.getSolution()
     if not sol.value_valid:
         return None, "no valid solution"
-    x = np.asarray(sol.col_value)
-    s = x[:-1].reshape(model.n, model.dim).copy()
-    problem = model.problem(s, float(x[-1]), np.zeros(model.rhs.size), tolerance)  # zero duals: primal only
+    s, inflation, _ = model.point(sol)
+    problem = model.problem(s, inflation, np.zeros(model.rhs.size), tolerance)  # zero duals: primal only
     if problem is not None:
         return None, problem
     duals = np.maximum(-np.asarray(sol.row_dual), 0.0) if sol.dual_valid else np.zeros(model.rhs.size)
-    return LPSolution(s, float(x[-1]), duals, 0.0, "interior"), None
+    return LPSolution(s, inflation, duals, 0.0, "interior"), None
 
 
 def _checked_optimum(h, model: _Model, tolerance: float):
     """The solution of a solve HiGHS calls optimal, checked once more: ``((s, Gamma, duals, basis or None), None)``,
     or ``(None, what is wrong)``."""
     sol = h.getSolution()
-    x = np.asarray(sol.col_value)
+    s, inflation, _ = model.point(sol)
     # minimisation with <= rows: HiGHS row duals are <= 0; lambda = -dual >= 0
     duals = np.maximum(-np.asarray(sol.row_dual), 0.0)
-    s = x[:-1].reshape(model.n, model.dim)
-    problem = model.problem(s, float(x[-1]), duals, tolerance)
+    problem = model.problem(s, inflation, duals, tolerance)
     if problem is not None:
         return None, problem
     basis = None
@@ -449,4 +473,4 @@ def _checked_optimum(h, model: _Model, tolerance: float):
     if hb.valid:
         order = np.argsort(model.keys)
         basis = LPBasis(model.keys[order], _status_codes(hb.row_status)[order], _status_codes(hb.col_status))
-    return (s.copy(), float(x[-1]), duals, basis), None
+    return (s, inflation, duals, basis), None

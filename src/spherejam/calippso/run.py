@@ -36,7 +36,7 @@ from .active_set import network_pivot_limit, network_prediction, solve_active_se
 from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .creep import creep_message, creeping
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
-from .lp import WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
+from .lp import NEAR_CONVERGED_SCALE, WARM_START_MAX_N, highs_version, resolve_solver, solve_lp
 from .lp_log import LPLog
 from .network import (balanced_forces, contact_network, escape_motion, free_directions, initial_pin, near_gaps,
                       repin)
@@ -56,6 +56,11 @@ STOP_REASONS = ("converged", "max_iterations", "no_force_network")
 #: With ``interior_steps``, an LP whose previous sqrt(Gamma) - 1 exceeds this is an intermediate step taken from the
 #: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10).
 INTERIOR_STEP_MIN = 1e-9
+#: A cold HiGHS solve (N >= SCALED_MIN_N: no warm start, lp.WARM_START_MAX_N) gets its LP in lp.NEAR_CONVERGED_SCALE
+#: units once the previous sqrt(Gamma) - 1 is below SCALED_BELOW: there the LP's gains are below HiGHS's absolute
+#: tolerance of 1e-9, its interior point predicts nothing, and its crossover fails (docs §5.8)
+SCALED_BELOW = 1e-9
+SCALED_MIN_N = WARM_START_MAX_N
 #: Parameters a resumed run may change (the same trajectory): they do not enter the checkpoint's fingerprint.
 RESUMABLE_CHANGES = ("max_iterations", "threads")
 #: Settings that choose only how the LPs are solved, and so the trajectory, never the convergence criteria: a run
@@ -780,6 +785,15 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     return sol
 
 
+def _lp_scale(loop, cfg: _Settings) -> float:
+    """The unit of HiGHS's LP (:func:`~.lp.solve_lp`'s ``scale``): :data:`~.lp.NEAR_CONVERGED_SCALE` for a cold solve
+    (N >= SCALED_MIN_N) once the last gain is below HiGHS's absolute tolerances (sqrt(Gamma) - 1 < SCALED_BELOW),
+    else 1 (docs §5.8)."""
+    if cfg.n >= SCALED_MIN_N and loop.sqrt_inflation_prev - 1.0 < SCALED_BELOW:
+        return NEAR_CONVERGED_SCALE
+    return 1.0
+
+
 def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSolution:
     """The HiGHS part of the solve: warm-started from the previous basis, with a back-off after failures (docs
     §5.3); under constraint generation over the near rows first, re-solved by dual simplex from its own basis while
@@ -794,7 +808,8 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
         sol = solve_lp(sub.rij, sub.sigma2, sub.pi, sub.pj, cfg.nodes, s_bound=lp.s_bound, pinned=_pins(loop, cfg),
                        inflation_bounds=(lp.inflation_min, lp.inflation_max), tolerance=cfg.solver_tolerance,
                        options=cfg.solver_options, iteration=iteration, warm=previous.basis if cuts else warm,
-                       solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts)
+                       solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts,
+                       scale=_lp_scale(loop, cfg))
         if previous is None:
             first.append(sol)
         return sol
