@@ -41,8 +41,8 @@ PREDICTED_MAX_N = 4096
 #: Primal simplex pivots allowed from a predicted basis before the second interior point takes over: about the
 #: break-even with that solve at N = 1024-2048 (docs/calippso.md §5.2).
 PREDICTED_PIVOT_LIMIT = 1500
-#: The unit of a near-converged LP as HiGHS gets it (``solve_lp(scale=...)``): its unknowns s and Gamma - 1 in units
-#: of this many (largest) diameters, resp. 1, so that HiGHS's absolute tolerances (1e-9) act at 1e-14 in the LP's own
+#: The unit kappa of a near-converged LP as HiGHS gets it (``solve_lp(scale=...)``): its unknowns are s / kappa (s in
+#: largest diameters) and (Gamma - 1) / kappa, so that HiGHS's absolute tolerances (1e-9) act at 1e-14 in the LP's own
 #: units, below the contacts' gaps there and above the round-off of |r|^2 - sigma^2 (docs/calippso.md §5.8).
 NEAR_CONVERGED_SCALE = 1e-5
 
