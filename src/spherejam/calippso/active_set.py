@@ -469,7 +469,7 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
             # a predicted vertex beyond some other row (a degenerate interior point ranks a few rows wrongly): dual
             # simplex pivots while the duals are feasible, the most violated row entering
             violated = int(np.count_nonzero(slack < -feasibility))
-            zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+            zero = _zero_dual(lam)
             if np.min(lam) < -zero:
                 bad = slack < -feasibility
                 relax[bad] -= 2.0 * slack[bad]  # the row then has slack |violation| > 0, not a degenerate block
@@ -483,7 +483,7 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
         k = int(np.argmin(lam))
         # optimal once no dual is negative; an exact (round-off) zero is a contact without force at a degenerate
         # optimum, which no pivot improves
-        zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+        zero = _zero_dual(lam)
         if lam[k] >= -zero:
             if np.any(relax):  # the relaxed LP is optimal: back to the true rows, dual pivots from here
                 relax[:] = 0.0
@@ -517,6 +517,11 @@ def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
     raise _NoVertex(f"relaxed rows not restored after {max_pivots} pivots")
 
 
+def _zero_dual(lam) -> float:
+    """The largest |dual| that counts as 0: round-off of an exactly zero force (DUAL_ZERO of the median)."""
+    return DUAL_ZERO * float(np.median(np.abs(lam)))
+
+
 def _dual_pivot(binv: BasisInverse, a_all, r: int, lam, pivot: int, m_pair: int) -> int:
     """The violated row ``r`` enters the basis, the row the dual ratio test picks leaves. Returns 1 if ``r`` is a
     bound row, else 0."""
@@ -531,7 +536,7 @@ def _dual_pivot(binv: BasisInverse, a_all, r: int, lam, pivot: int, m_pair: int)
     # alpha came first, and the new basis was singular (docs §5.4)
     lam_c = np.maximum(lam[candidates], 0.0)
     alpha_c = alpha[candidates]
-    zero = DUAL_ZERO * float(np.median(np.abs(lam)))
+    zero = _zero_dual(lam)
     tied = np.flatnonzero(lam_c / alpha_c <= np.min((lam_c + zero) / alpha_c))
     k = int(candidates[tied[np.argmax(alpha_c[tied])]])
     try:

@@ -328,16 +328,13 @@ class _Model:
         lower[fixed] = 0.0
         upper[fixed] = 0.0
         lower[-1], upper[-1] = inflation_bounds
-        if scale == 1.0:
-            lp = highs_model(cost, lower, upper, np.full(m, -np.inf), rhs, start, index, value)
-        else:
-            shift = np.zeros(ncol)
-            shift[-1] = 1.0
-            gap = rhs - sigma2
-            lp = highs_model(cost, (lower - shift) / scale, (upper - shift) / scale, np.full(m, -np.inf),
-                             gap / scale, start, index, value)
-        return cls(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, lp, rhs, lower, upper,
-                   pair_keys(pi, pj, n), scale)
+        model = cls(rij, sigma2, pi, pj, n, s_bound, pinned, inflation_bounds, None, rhs, lower, upper,
+                    pair_keys(pi, pj, n), scale)
+        shift = np.zeros(ncol)
+        shift[-1] = model.gamma_offset
+        model.lp = highs_model(cost, (lower - shift) / scale, (upper - shift) / scale, np.full(m, -np.inf),
+                               model.highs_rhs() / scale, start, index, value)
+        return model
 
     @property
     def dim(self) -> int:
@@ -347,14 +344,22 @@ class _Model:
     def ncol(self) -> int:
         return self.lower.size
 
+    @property
+    def gamma_offset(self) -> float:
+        """What HiGHS's last unknown lacks of Gamma: 1 in a scaled LP (Gamma - 1), else 0 (the LP as it is, bit for
+        bit)."""
+        return 0.0 if self.scale == 1.0 else 1.0
+
+    def highs_rhs(self) -> np.ndarray:
+        """The pair rows' right-hand side in HiGHS's unknowns, before the division by ``scale``: |r|^2 -
+        sigma^2 in a scaled LP (a gap computed here, not a difference HiGHS forms), else |r|^2."""
+        return self.rhs - self.gamma_offset * self.sigma2
+
     def point(self, sol) -> tuple[np.ndarray, float, np.ndarray]:
         """A HiGHS solution's (s (N, d), Gamma, every row's slack |r|^2 - A x) in the LP's own units."""
         x = np.asarray(sol.col_value) * self.scale
-        x[-1] += 1.0 if self.scale != 1.0 else 0.0
-        # the slack as HiGHS's row activity gives it: exact in the scaled rows, where it is a gap, not a difference
-        # of squares
-        gap = self.rhs - self.sigma2 if self.scale != 1.0 else self.rhs
-        slack = gap - np.asarray(sol.row_value) * self.scale
+        x[-1] += self.gamma_offset
+        slack = self.highs_rhs() - np.asarray(sol.row_value) * self.scale
         return x[:-1].reshape(self.n, self.dim).copy(), float(x[-1]), slack
 
     def problem(self, s, inflation, duals, tolerance) -> str | None:
