@@ -32,7 +32,7 @@ development machines are not kept between sittings.
   p = 1e12), the kind of start whose closest jammed state MLS searches for. Hours of CPU; its MLS run checkpoints
   beside the file as well. (The earlier ``mls10000_p1e12_s0`` started from ``ls10000_p1e12_s0``: a slowly
   compressed output that MLS finds jammed in its first window and returns unchanged, so it was that LS output again,
-  docs/calippso.md §10.12.)
+  docs/calippso.md §10.12.) ``mls10000_s0_seed2`` is the same recipe with seed 2.
 """
 
 from __future__ import annotations
@@ -70,9 +70,12 @@ FIXTURES: dict[str, tuple[int, float, float, float, int]] = {
     "ls512_p1e12": (512, 0.0, 1e-3, 1e12, 1),
     # the MLS fixture's start: fast LS, far from its closest jammed state (the parity starts, docs/mls_parity.md §6)
     "ls10000_rate0.5_s0": (10_000, 0.0, 0.5, 1e12, 1),
+    # the same start with another seed: the second N = 1e4 MLS output, on which the cost model's LP count is
+    # validated (docs/calippso.md §10.17)
+    "ls10000_rate0.5_s0_seed2": (10_000, 0.0, 0.5, 1e12, 2),
 }
 #: name -> the LS fixture its MLS search starts from (the paper's MLS parameters, the workflow's defaults)
-MLS_FIXTURES: dict[str, str] = {"mls10000_s0": "ls10000_rate0.5_s0"}
+MLS_FIXTURES: dict[str, str] = {"mls10000_s0": "ls10000_rate0.5_s0", "mls10000_s0_seed2": "ls10000_rate0.5_s0_seed2"}
 DEFAULT_DIR = Path(__file__).resolve().parent / "fixtures"
 
 
