@@ -338,6 +338,44 @@ def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_f
     assert sum(pivots) <= short, (pivots, why)
 
 
+def test_an_active_set_solve_promotes_stuck_rattlers_for_as_many_rounds_as_its_pivots_last(monkeypatch, ls_fast_256):
+    """A vertex that leaves predicted rattlers no place makes them members and starts again, and each new vertex can
+    leave other rattlers stuck: at N = 1e4, sigma = 0.3 one took four rounds (20, 5, 4, 2 rattlers), and the cap of
+    two sent the LP to a crossover fallback of 3.3 times the cost (docs/calippso.md §5.4). Here the creeping N = 256
+    input's first promoting solve, whose vertex leaves 3 rattlers stuck, promotes one per round: it needs three
+    rounds, and it is certified, at the vertex of the one-round solve."""
+    import spherejam.calippso.active_set as active_set
+    import spherejam.calippso.run as run_module
+
+    calls = []
+    solve = run_module.solve_active_set
+
+    def recorded(*args, **kwargs):
+        sol = solve(*args, **kwargs)
+        calls.append((args, kwargs, sol))
+        return sol
+
+    monkeypatch.setattr(run_module, "solve_active_set", recorded)
+    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
+    promoting = [(a, k, sol) for a, k, sol in calls if sol is not None and "+1promoted" in sol.method]
+    assert promoting, [sol and sol.method for _, _, sol in calls]
+    args, kwargs, once = promoting[0]
+    promote = active_set._promote
+    stuck_sizes = []
+
+    def one_per_round(rij, sigma2, pi, pj, n, rattler, stuck):
+        stuck_sizes.append(stuck["rattlers"].size)
+        return promote(rij, sigma2, pi, pj, n, rattler, {**stuck, "rattlers": stuck["rattlers"][:1]})
+
+    monkeypatch.setattr(active_set, "_promote", one_per_round)
+    why: list[str] = []
+    sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 2000, "why": why})
+    assert sol is not None and "+3promoted" in sol.method, why
+    assert stuck_sizes == [3, 2, 1], stuck_sizes
+    assert sol.inflation == pytest.approx(once.inflation, rel=1e-14, abs=0.0)
+    assert np.min(sol.duals) >= 0.0 and np.count_nonzero(sol.duals) == np.count_nonzero(once.duals)
+
+
 def test_a_particle_held_against_its_bound_by_d_contacts_is_stable_in_a_periodic_box():
     """The s bound is a wall in the rattler analysis of a prediction (docs/calippso.md §5.4). In a periodic box it
     used to be peeled like a particle once fewer than d + 1 held components remained, and with it every particle

@@ -268,8 +268,11 @@ def _fail(why: list[str] | None, reason: str) -> None:
     return None
 
 
-#: Times an active-set solve may turn the predicted rattlers that found no place into members of the network.
-MAX_PROMOTIONS = 2
+#: Times an active-set solve may turn the predicted rattlers that found no place into members of the network. Each
+#: round costs a factorisation and re-pivots from the new prediction out of the solve's one pivot budget, which is
+#: what bounds the cost; the cap only stops a solve that keeps finding new stuck rattlers. At N = 1e4, sigma = 0.3 a
+#: vertex needed four rounds (20, 5, 4, 2 rattlers): 107 CPU-s, where the fallback cost 355 (docs/calippso.md §5.4).
+MAX_PROMOTIONS = 8
 
 
 def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
