@@ -221,6 +221,45 @@ def test_forced_active_set_failure_falls_back_to_highs(monkeypatch, ls_fast_256)
     assert forced.phi == pytest.approx(ref.phi, abs=1e-9)
 
 
+def test_the_previous_network_is_not_tried_after_an_lp_that_changed_more_contacts_than_its_pivots(monkeypatch,
+                                                                                                    ls_fast_256):
+    """Each contact that changes between two LPs takes at least one pivot of the shortcut, and a creeping flow goes
+    on changing as many: at N = 10^4 the LS outputs' LPs changed 250-470 contacts each, and every attempt from the
+    previous network failed (200 pivots, 6-45 s each, docs/calippso.md §5.4). So after an LP that changed more
+    contacts than the shortcut's pivots, the next goes straight to HiGHS. Here the pivots are capped at 20 on the
+    creeping N = 256 input, whose LPs change 15-41 contacts: the shortcut is tried exactly after the LPs that changed
+    at most 20, and the run reaches the certificate of the default one."""
+    import spherejam.calippso.run as run_module
+
+    ref = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    checked: list[int] = []  # LPs checked so far, at each shortcut attempt
+    tried: list[int] = []
+    check, solve = run_module._check, run_module.solve_active_set
+
+    def counted_check(*args, **kwargs):
+        checked.append(1)
+        return check(*args, **kwargs)
+
+    def recorded(*args, **kwargs):
+        tried.append(len(checked) + 1)  # the LP this attempt solves
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(run_module, "network_pivot_limit", lambda n: 20)
+    monkeypatch.setattr(run_module, "_check", counted_check)
+    monkeypatch.setattr(run_module, "solve_active_set", recorded)
+    res = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
+    changes = res.history["contact_changes"]
+    main_loop = [k for k in tried if k <= res.iterations]
+    assert main_loop and any(changes[k - 2] > 20 for k in range(2, res.iterations + 1)), changes
+    assert all(changes[k - 2] <= 20 for k in main_loop), (main_loop, changes)
+    isostatic = res.history["isostatic"]
+    assert all(k in main_loop for k in range(2, res.iterations + 1) if 0 <= changes[k - 2] <= 20
+               and isostatic[k - 2]), (main_loop, changes)
+    assert_jammed(res, 3)
+    assert {tuple(p) for p in res.pairs.tolist()} == {tuple(p) for p in ref.pairs.tolist()}
+    assert res.phi == pytest.approx(ref.phi, abs=1e-9)
+
+
 def test_lps_after_a_bound_held_lp_are_shortcuts_with_the_same_certificate(ls_jammed_256):
     """A bound a fifth of the first LP's step (fixed, so it never widens): LPs 1-7 end with stable components held
     at it and are not isostatic by their contacts (as the first LPs of N = 10^4 LS outputs, docs/calippso.md §9).

@@ -769,13 +769,18 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
                         crossover=cfg.crossover, interior=True)
     # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
     # shortcut only when there is no basis to start from
-    if loop.predicted is not None and (loop.basis is None or lp.regime == 1):
+    cold = loop.basis is None
+    if loop.predicted is not None and cold and loop.contact_swaps > network_pivot_limit(cfg.n):
+        # each contact that changes takes a pivot at least, and the flow that changed them goes on (docs §5.4)
+        _log.info("calippso it %d: the previous contact network is not tried: the last LP changed %d contacts, more "
+                  "than its %d pivots", iteration + 1, loop.contact_swaps, network_pivot_limit(cfg.n))
+    elif loop.predicted is not None and (cold or lp.regime == 1):
         t_try = time.perf_counter()
         why: list[str] = []
         keys, rattler, held = loop.predicted
         sol = solve_active_set(lp.rij, lp.sigma2, lp.pi, lp.pj, cfg.nodes, keys, rattler, s_bound=lp.s_bound,
                                pinned=_pins(loop, cfg), inflation_bounds=(lp.inflation_min, lp.inflation_max), why=why,
-                               max_pivots=network_pivot_limit(cfg.n) if loop.basis is None else None, fixed=held)
+                               max_pivots=network_pivot_limit(cfg.n) if cold else None, fixed=held)
         if sol is None:
             tally.lp_time += time.perf_counter() - t_try  # a failed attempt is LP time too
             _log.info("calippso it %d: the previous contact network is not this LP's vertex (%.1f s): %s",
@@ -855,6 +860,7 @@ def _check(lp: _LP, sol: LPSolution, loop, cfg: _Settings):
         gained = int(np.setdiff1d(network[0], loop.contacts, assume_unique=True).size)
         lost = int(np.setdiff1d(loop.contacts, network[0], assume_unique=True).size)
     loop.contacts = network[0]
+    loop.contact_swaps = gained + lost if gained >= 0 else -1
     return contact, rattler, n_contacts, isostatic, gained, lost
 
 
@@ -1009,6 +1015,7 @@ class _LoopState:
     gauge: np.ndarray | None = None  # a container's gauge pins, flat s columns (docs/containers.md §5)
     escapes: int = 0  # escapes of unheld spheres after convergence (_escape)
     escape_phi: float = 0.0  # phi at the last one
+    contact_swaps: int = -1  # contacts among non-rattlers the last LP gained and lost (-1: no LP before it)
 
     def arrays(self, x, dia) -> dict[str, np.ndarray]:
         out = {"positions": x, "diameters": dia}
@@ -1027,7 +1034,7 @@ class _LoopState:
     def attrs(self, iteration: int, lp_time: float) -> dict[str, Any]:
         return {"iteration": iteration, "lp_time": lp_time, "sqrt_inflation_prev": self.sqrt_inflation_prev,
                 "pinned": int(self.pinned), "prev_s_bound": self.prev_s_bound, "bound_hit": self.bound_hit,
-                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip,
+                "warm_failures": self.warm_failures, "warm_skip": self.warm_skip, "contact_swaps": self.contact_swaps,
                 **({"escapes": self.escapes, "escape_phi": self.escape_phi} if self.escapes else {})}
 
     @classmethod
@@ -1042,7 +1049,7 @@ class _LoopState:
         return cls(float(attrs["sqrt_inflation_prev"]), int(attrs["pinned"]), float(attrs["prev_s_bound"]),
                    bool(attrs["bound_hit"]), predicted, basis, int(attrs["warm_failures"]), int(attrs["warm_skip"]),
                    arrays.get("contact_keys"), arrays.get("gauge"), int(attrs.get("escapes", 0)),
-                   float(attrs.get("escape_phi", 0.0)))
+                   float(attrs.get("escape_phi", 0.0)), int(attrs.get("contact_swaps", -1)))
 
 
 @dataclass
