@@ -47,6 +47,22 @@ def lp_rows(csv_name: str, method: str | None, n: int, exclude: str | None = Non
     return n, (sum(cpu) / len(cpu) if cpu else math.nan), len(cpu)
 
 
+def whole_run(summary: str, key: str = "clean") -> tuple[int, float, int]:
+    """(N, CPU s per LP, LPs) of a whole certification from its summary JSON: every LP and the force LP over its LPs."""
+    rec = json.loads((RECORDS / summary).read_text())[key]
+    if not rec.get("converged"):
+        raise ValueError(f"{summary}: not converged")
+    return rec["n"], rec["lp_cpu_s_with_force_lp"] / rec["iterations"], rec["iterations"]
+
+
+def lp_count(summary: str, key: str = "clean") -> tuple[int, float]:
+    """(N, LPs) of a whole certification from its summary JSON."""
+    rec = json.loads((RECORDS / summary).read_text())[key]
+    if not rec.get("converged"):
+        raise ValueError(f"{summary}: not converged")
+    return rec["n"], float(rec["iterations"])
+
+
 def power_law(a: tuple[int, float], b: tuple[int, float]) -> tuple[float, float]:
     """(A, b) of A (N / 1000)^b through two (N, seconds) points."""
     exponent = math.log(b[1] / a[1]) / math.log(b[0] / a[0])
@@ -74,6 +90,10 @@ def main() -> int:
              lambda: VERTEX_1E4_ISSUE30),
             ("ls16384_p1e5 (N = 16384), its LPs on the vertex path (LP 1, LPs 43 on; run not ended)",
              lambda: lp_rows("ls16384_p1e5.lps.csv", None, 16_384, exclude="interior")),
+            ("mls10000_s0 (N = 1e4 MLS output), whole run on the default path",
+             lambda: whole_run("mls10000_s0.summary.json")),
+            ("mls10000_s0_seed2 (N = 1e4 MLS output, seed 2), whole run on the default path (held out)",
+             lambda: whole_run("mls10000_s0_seed2.summary.json")),
         ],
         "interior": [
             ("30 archived N = 1000 MLS outputs, whole runs (paths/mls1000, auto+interior)",
@@ -92,7 +112,9 @@ def main() -> int:
     # warm start, no active-set shortcut: spherejam.calippso.lp.WARM_START_MAX_N), so it has one power law through the
     # whole runs at N = 1000 and the N = 4096 LPs, and another from there through the largest N measured; interior
     # steps are one law through N = 1000 and the largest N
-    anchors = {"vertex": [0, 2, 6], "interior": [0, 4]}
+    # (the upper anchor of the vertex path is the workflow's own case at the paper's N, an MLS output certified whole,
+    # since 2026-12-07; it was the N = 16384 LS run's LPs, a kind of input whose LPs the shortcut does not reach)
+    anchors = {"vertex": [0, 2, 7], "interior": [0, 4]}
     for path, candidates in rows.items():
         measured = []
         for label, get in candidates:
@@ -117,7 +139,42 @@ def main() -> int:
             model = a * (n / 1000.0) ** b
             print(f"| {label} | {n} | {t:.3g} | {', '.join(map(str, count)) or '-'} | {model:.3g} | "
                   f"{model / t:.2f} | {'yes' if k in chain else 'no'} |")
+    lp_counts()
     return 0
+
+
+#: The LP count's first segment, fitted to the reproduction ladder's mean LPs per certification at N = 250, 500 and
+#: 1000 (3.9, 6.8, 14.7; archive/reproduction/dataset.nc): 14.2 (N / 1000)^0.96 (docs/cluster.md §3).
+LADDER_LPS = (14.2, 0.96)
+
+
+def lp_counts() -> None:
+    """The LP count per certification: the ladder's law up to N = 1000, then a power law from its value there
+    through the mean of the whole N = 1e4 MLS runs in the fit; every other whole run is printed against it."""
+    a, b = LADDER_LPS
+    fitted = [("mls10000_s0 (N = 1e4 MLS output)", lambda: lp_count("mls10000_s0.summary.json"))]
+    held_out = [("mls10000_s0_seed2 (N = 1e4 MLS output, seed 2)", lambda: lp_count("mls10000_s0_seed2.summary.json")),
+                ("30 archived N = 1000 MLS outputs on today's path (paths/mls1000, auto)",
+                 lambda: (lambda r: (r[0], r[3] / r[2]))(pooled("mls1000", "auto")))]
+    n_fit = [get() for _, get in fitted]
+    n_big = n_fit[0][0]
+    mean = sum(lps for _, lps in n_fit) / len(n_fit)
+    exponent = math.log(mean / a) / math.log(n_big / 1000.0)
+    print(f"\nLP count: {a:g} (N/1000)^{b:g} up to N = 1000, then {a:g} (N/1000)^{exponent:.3f} "
+          f"(through the mean of {len(n_fit)} whole run(s) at N = {n_big}: {mean:.1f} LPs)")
+    print("| row | N | LPs | model | model / measured | in the fit |")
+    print("|---|---|---|---|---|---|")
+    for (label, _), (n, lps) in zip(fitted, n_fit):
+        model = a * (n / 1000.0) ** (b if n <= 1000 else exponent)
+        print(f"| {label} | {n} | {lps:.1f} | {model:.1f} | {model / lps:.2f} | yes |")
+    for label, get in held_out:
+        try:
+            n, lps = get()
+        except (OSError, ValueError):
+            print(f"(LP count: no record for {label})")
+            continue
+        model = a * (n / 1000.0) ** (b if n <= 1000 else exponent)
+        print(f"| {label} | {n} | {lps:.1f} | {model:.1f} | {model / lps:.2f} | no |")
 
 
 if __name__ == "__main__":

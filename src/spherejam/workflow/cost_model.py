@@ -17,7 +17,8 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   ``MLS_PHASE_FRACTION`` (a stage ends early while the packing is still jammed) and ``(N / 1000)^MLS_SIZE_EXPONENT``
   (a larger packing unjams more often in the slow stages).
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
-* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs of :func:`calippso_lp_seconds` each, for the LP
+* CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs up to N = 1000 (``CALIPPSO_LPS_LARGE_EXPONENT``
+  from there on) of :func:`calippso_lp_seconds` each, for the LP
   path that runs at that N (:func:`spherejam.core.calippso_path.interior_steps_at`, or ``calippso.interior_steps``):
   ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` on the vertex path (``CALIPPSO_COLD_LP_SECONDS (N /
   1000)^CALIPPSO_COLD_EXPONENT`` from ``CALIPPSO_COLD_MIN_N`` on, where every LP is a cold solve),
@@ -73,21 +74,24 @@ MLS_SIZE_EXPONENT = 0.554
 FB_BASE = 30.0
 FB_PER_INVERSE_RATE = 0.13
 FB_SECONDS = 3.5e-7
-#: CALiPPSO: mean LPs of a certification at N = 1000 and their growth with N, fitted to the reproduction ladder's
-#: 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7). docs/cluster.md §3.
+#: CALiPPSO: mean LPs of a certification at N = 1000 and their growth with N up to there, fitted to the reproduction
+#: ladder's 244 certifications of MLS outputs (N = 250, 500, 1000: means 3.9, 6.8, 14.7); from N = 1000 on, the
+#: growth through the whole certification of an N = 1e4 MLS output (29 LPs). docs/cluster.md §3.
 CALIPPSO_LPS = 14.2
 CALIPPSO_LPS_EXPONENT = 0.96
+CALIPPSO_LPS_LARGE_EXPONENT = 0.310
 #: CPU seconds per LP on the vertex path (every LP a vertex; the default, below core.calippso_path's
 #: INTERIOR_STEPS_MIN_N when it is set), a power law in two segments joined at CALIPPSO_COLD_MIN_N. Below it most LPs
 #: are warm-started or active-set solves: through the mean of 30 archived N = 1000 MLS outputs certified whole (577
-#: LPs, start-up and force LPs included) and the vertex path's LPs at N = 4096. From it on every LP is a cold HiPO
-#: solve, and the time grows more slowly: through the N = 4096 LPs and the N = 16384 run's 27 vertex-path LPs (354 s,
-#: three of them crossover fallbacks of 1200-1500 s). Fitted by benchmarks/calippso_cost_fit.py; docs/cluster.md §3.
+#: LPs, start-up and force LPs included) and the vertex path's LPs at N = 4096. From it on no LP is warm-started, and
+#: the time grows more slowly: through the N = 4096 LPs and the whole certification of an N = 1e4 MLS output (58.1 s
+#: per LP, most of them active-set shortcuts from the previous network). Fitted by benchmarks/calippso_cost_fit.py;
+#: docs/cluster.md §3.
 CALIPPSO_LP_SECONDS = 0.52
 CALIPPSO_EXPONENT = 2.81
 CALIPPSO_COLD_MIN_N = 4096  # spherejam.calippso.lp.WARM_START_MAX_N, not imported: this module stays light
-CALIPPSO_COLD_LP_SECONDS = 2.00
-CALIPPSO_COLD_EXPONENT = 1.851
+CALIPPSO_COLD_LP_SECONDS = 8.22
+CALIPPSO_COLD_EXPONENT = 0.849
 #: CPU seconds per LP with interior steps (config calippso.interior_steps: true; the default from
 #: INTERIOR_STEPS_MIN_N on when it is set): through the whole certifications of 29 of the same N = 1000 MLS outputs
 #: (268 LPs; IPX below N = 4096) and the mean of the N = 16384 run's 41 interior steps (120 s; HiPO), checked on the
@@ -190,7 +194,7 @@ def calippso_lps(n: int) -> float:
     """Expected number of LPs of one CALiPPSO certification of an MLS output of N spheres (a mean: the median is
     smaller, and a few certifications take tens of times more, docs/calippso.md §9)."""
     n = _check_n(n)
-    return CALIPPSO_LPS * (n / 1000.0) ** CALIPPSO_LPS_EXPONENT
+    return CALIPPSO_LPS * (n / 1000.0) ** (CALIPPSO_LPS_EXPONENT if n <= 1000 else CALIPPSO_LPS_LARGE_EXPONENT)
 
 
 def calippso_lp_seconds(n: int, interior_steps: bool | None = None) -> float:
