@@ -18,10 +18,10 @@ calibration on the development machine: docs/cluster.md §3, 'Cost model'):
   (a larger packing unjams more often in the slow stages).
 * FB: ``FB_BASE + FB_PER_INVERSE_RATE / gamma`` iterations of ``FB_SECONDS N`` seconds each.
 * CALiPPSO: ``CALIPPSO_LPS (N / 1000)^CALIPPSO_LPS_EXPONENT`` LPs up to N = 1000 (``CALIPPSO_LPS_LARGE_EXPONENT``
-  from there on) of :func:`calippso_lp_seconds` each, for the LP
-  path that runs at that N (:func:`spherejam.core.calippso_path.interior_steps_at`, or ``calippso.interior_steps``):
+  from there on) of :func:`calippso_lp_seconds` each, for the LP path that runs at that N
+  (:func:`spherejam.core.calippso_path.interior_steps_at`, or ``calippso.interior_steps``):
   ``CALIPPSO_LP_SECONDS (N / 1000)^CALIPPSO_EXPONENT`` on the vertex path (``CALIPPSO_COLD_LP_SECONDS (N /
-  1000)^CALIPPSO_COLD_EXPONENT`` from ``CALIPPSO_COLD_MIN_N`` on, where every LP is a cold solve),
+  1000)^CALIPPSO_COLD_EXPONENT`` from ``CALIPPSO_COLD_MIN_N`` on, where no LP is warm-started),
   ``CALIPPSO_INTERIOR_LP_SECONDS (N / 1000)^CALIPPSO_INTERIOR_EXPONENT`` with interior steps (the per-LP time
   includes the run's share of its force LP and start-up).
 * seed and analyze: linear in N, seconds at N = 10^4 (start-up dominates).
