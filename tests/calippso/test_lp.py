@@ -88,6 +88,30 @@ def test_hipo_is_available_and_really_runs(tmp_path, ls_jammed_256):
         run_calippso(ls_jammed_256, solver="gurobi")
 
 
+def test_hipo_is_given_the_augmented_system(tmp_path, ls_jammed_256):
+    """Gamma's column has an entry in every row, so HiPO's normal equations are dense; asked to choose, its analysis
+    tries them first and fails, which was 13 of 73 CPU-s of an LP at N = 1e4 (docs/calippso.md §5.1). HiGHS's log of
+    one solve says the augmented system was requested, where left to choose it fails on the normal equations first,
+    and the vertex is the same; a user's own hipo_system still wins. (HiPO writes its analysis to the log file only
+    while it also logs to the console, which pytest captures.)"""
+    rij, sigma2, i, j = force_lp(ls_jammed_256)
+    solutions = {}
+    for system, newton in ((None, "AS requested"), ("choose", "AS preferred (NE failed)")):
+        log = tmp_path / f"{system}.log"
+        extra = {} if system is None else {"hipo_system": system}
+        solutions[system] = solve_lp(rij, sigma2, i, j, 256, s_bound=0.5, pinned=0,
+                                     inflation_bounds=(-math.inf, math.inf), solver="hipo", crossover=False,
+                                     options={"output_flag": True, "log_to_console": True, "log_file": str(log),
+                                              **extra})
+        lines = [line.split(":", 1)[1].strip() for line in log.read_text().splitlines()
+                 if line.startswith("Newton system")]
+        assert lines == [newton], lines
+    assert solutions[None].method == solutions["choose"].method and solutions[None].method.startswith("vertex")
+    assert solutions[None].inflation == pytest.approx(solutions["choose"].inflation, rel=1e-12)
+    duals = solutions[None].duals
+    np.testing.assert_allclose(duals, solutions["choose"].duals, atol=1e-9 * duals.max())
+
+
 @pytest.mark.parametrize("solver", ["hipo", "ipx"])
 def test_certified_vertex_equals_crossover(ls_jammed_256, solver):
     """The interior point's near-active rows, certified by the active-set solve, give the vertex crossover gives:

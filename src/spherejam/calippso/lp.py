@@ -109,6 +109,10 @@ def _highs_options(tolerance: float, extra: dict[str, Any] | None, solver: str =
         # one thread by default: workflow jobs get one core each, and idle scheduler workers would spin on it
         "threads": int(threads),
     }
+    if solver == "hipo":
+        # Gamma's column has an entry in every row, so the normal equations are dense: HiPO's analysis tries them,
+        # fails, and takes the augmented system after all (13 of 73 CPU-s at N = 1e4, docs/calippso.md §5.1)
+        opts["hipo_system"] = "augmented"
     opts.update(extra or {})
     return opts
 
