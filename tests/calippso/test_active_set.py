@@ -334,13 +334,9 @@ def _third_lp_attempt(monkeypatch, packing):
     return active_set, *calls[1]
 
 
-def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_fast_256):
-    """An attempt that turns rattlers into members starts pivoting again from the new prediction; its pivots come
-    out of the same budget as those before (at N = 10^4 three attempts of the whole budget kept one LP pivoting for
-    over 20 CPU-minutes, docs/calippso.md §5.4). A solve of the creeping N = 256 input that promotes is certified
-    within 500 pivots; given one pivot fewer than all its attempts took, though each attempt alone took fewer than
-    that, it gives up, and its attempts together never pivot more than it was given."""
-    import spherejam.calippso.active_set as active_set
+def first_promoting_solve(monkeypatch, packing):
+    """``(args, kwargs, solution)`` of the first active-set solve of a run on ``packing`` (warm starts off, so that
+    every LP tries the shortcut) that made stuck rattlers members of the network."""
     import spherejam.calippso.run as run_module
 
     calls = []
@@ -352,10 +348,22 @@ def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_f
         return sol
 
     monkeypatch.setattr(run_module, "solve_active_set", recorded)
-    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=12)
-    promoting = [(a, k) for a, k, sol in calls if sol is not None and "promoted" in sol.method]
+    run_calippso(packing, solver="hipo", warm_start=False, max_iterations=3)
+    monkeypatch.setattr(run_module, "solve_active_set", solve)
+    promoting = [call for call in calls if call[2] is not None and "promoted" in call[2].method]
     assert promoting, [sol and sol.method for _, _, sol in calls]
-    args, kwargs = promoting[0]
+    return promoting[0]
+
+
+def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_fast_256):
+    """An attempt that turns rattlers into members starts pivoting again from the new prediction; its pivots come
+    out of the same budget as those before (at N = 10^4 three attempts of the whole budget kept one LP pivoting for
+    over 20 CPU-minutes, docs/calippso.md §5.4). A solve of the creeping N = 256 input that promotes is certified
+    within 500 pivots; given one pivot fewer than all its attempts took, though each attempt alone took fewer than
+    that, it gives up, and its attempts together never pivot more than it was given."""
+    import spherejam.calippso.active_set as active_set
+
+    args, kwargs, _ = first_promoting_solve(monkeypatch, ls_fast_256)
 
     pivots: list[int] = []  # of each attempt that reached a vertex
     pivot = active_set._pivot
@@ -384,21 +392,9 @@ def test_an_active_set_solve_promotes_stuck_rattlers_for_as_many_rounds_as_its_p
     input's first promoting solve, whose vertex leaves 3 rattlers stuck, promotes one per round: it needs three
     rounds, and it is certified, at the vertex of the one-round solve."""
     import spherejam.calippso.active_set as active_set
-    import spherejam.calippso.run as run_module
 
-    calls = []
-    solve = run_module.solve_active_set
-
-    def recorded(*args, **kwargs):
-        sol = solve(*args, **kwargs)
-        calls.append((args, kwargs, sol))
-        return sol
-
-    monkeypatch.setattr(run_module, "solve_active_set", recorded)
-    run_calippso(ls_fast_256, solver="hipo", warm_start=False, max_iterations=3)
-    promoting = [(a, k, sol) for a, k, sol in calls if sol is not None and "+1promoted" in sol.method]
-    assert promoting, [sol and sol.method for _, _, sol in calls]
-    args, kwargs, once = promoting[0]
+    args, kwargs, once = first_promoting_solve(monkeypatch, ls_fast_256)
+    assert "+1promoted" in once.method
     promote = active_set._promote
     stuck_sizes = []
 
