@@ -411,6 +411,35 @@ def test_an_active_set_solve_promotes_stuck_rattlers_for_as_many_rounds_as_its_p
     assert np.min(sol.duals) >= 0.0 and np.count_nonzero(sol.duals) == np.count_nonzero(once.duals)
 
 
+def test_a_promotion_round_starts_from_the_vertex_the_round_before_reached(monkeypatch, ls_fast_256):
+    """Promoted rattlers' rows leave every other unknown and dual of the vertex that stranded them as they were, so
+    the next round starts there and pivots only for what the newcomers change. Started from the first prediction
+    again, a round paid the pivots before it a second time: at N = 1e4, sigma = 0.3 three rounds overran the solve's
+    budget and the LP fell back to crossover (472 CPU-s; 183 CPU-s certified from the vertex, docs/calippso.md §5.4).
+    The creeping N = 256 input's first promoting solve: the round after the promotion takes under a third of the
+    first round's pivots (on the old code about as many), and its vertex is the LP's optimum, HiGHS's Gamma."""
+    import spherejam.calippso.active_set as active_set
+
+    args, kwargs, _ = first_promoting_solve(monkeypatch, ls_fast_256)
+    pivots: list[int] = []  # of each attempt that reached a vertex
+    pivot = active_set._pivot
+
+    def counted(system, feasibility, max_pivots):
+        out = pivot(system, feasibility, max_pivots)
+        pivots.append(out[2])
+        return out
+
+    monkeypatch.setattr(active_set, "_pivot", counted)
+    sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
+    assert sol is not None and "+1promoted" in sol.method
+    assert len(pivots) == 2 and pivots[0] >= 30 and pivots[1] < pivots[0] / 3, pivots
+    rij, sigma2, pi, pj, n = args[:5]
+    ref = solve_lp(rij, sigma2, pi, pj, n, s_bound=kwargs["s_bound"], pinned=kwargs["pinned"],
+                   inflation_bounds=kwargs["inflation_bounds"], solver="ipx")
+    assert sol.inflation == pytest.approx(ref.inflation, rel=1e-12, abs=0.0)
+    assert np.min(sol.duals) >= 0.0
+
+
 def test_a_particle_held_against_its_bound_by_d_contacts_is_stable_in_a_periodic_box():
     """The s bound is a wall in the rattler analysis of a prediction (docs/calippso.md §5.4). In a periodic box it
     used to be peeled like a particle once fewer than d + 1 held components remained, and with it every particle

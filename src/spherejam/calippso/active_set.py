@@ -268,9 +268,9 @@ def _fail(why: list[str] | None, reason: str) -> None:
     return None
 
 
-#: Times an active-set solve may turn the predicted rattlers that found no place into members of the network. Each
-#: round costs a factorisation and re-pivots from the new prediction out of the solve's one pivot budget, which is
-#: what bounds the cost; the cap only stops a solve that keeps finding new stuck rattlers. At N = 1e4, sigma = 0.3 a
+#: Times an active-set solve may turn the predicted rattlers that found no place into members of the network. Each round
+#: costs a factorisation and pivots from the vertex the round before reached, out of the solve's one pivot budget, which
+#: is what bounds the cost; the cap only stops a solve that keeps finding new stuck rattlers. At N = 1e4, sigma = 0.3 a
 #: vertex needed four rounds (20, 5, 4, 2 rattlers): 107 CPU-s, where the fallback cost 355 (docs/calippso.md §5.4).
 MAX_PROMOTIONS = 8
 
@@ -283,30 +283,31 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
     The prediction is the isostatic contact network of the previous LP (``contact_keys``: the pair keys of its
     contacts, ``rattler`` its rattlers), or a network with components held at their bound (``fixed``, below). Its
     rows, as equalities, form a square system in the displacements of the stable, non-pinned particles and Gamma
-    (N_c + held components = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the
-    transpose, the duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots
-    below treat a bound like a contact. While a dual is negative, that row is released along the edge that keeps the
-    others tight and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows
-    with duals >= 0 is repaired by dual simplex pivots (the most violated row enters, the dual ratio test picks the
-    one that leaves); beyond other rows with negative duals, those rows are relaxed until primal pivots have made the
-    duals >= 0, then restored by dual pivots. Every pivot updates the basis matrix's LU (:class:`BasisInverse`). The
+    (N_c + held components = d(N_s - 1) + 1 unknowns); a sparse LU gives the vertex and, with the transpose, the
+    duals. The bounds of the unknowns (s_bound, the Gamma bounds) are rows as well, so the pivots below treat a
+    bound like a contact. While a dual is negative, that row is released along the edge that keeps the others tight
+    and the first row to close enters (primal simplex, exact ratio test). A vertex beyond other rows with duals >= 0
+    is repaired by dual simplex pivots (the most violated row enters, the dual ratio test picks the one that
+    leaves); beyond other rows with negative duals, those rows are relaxed until primal pivots have made the duals
+    >= 0, then restored by dual pivots. Every pivot updates the basis matrix's LU (:class:`BasisInverse`). The
     vertex is returned only when it is *certified optimal*: all duals >= 0 (a zero one is a contact without force,
     at a degenerate optimum), all rows and bounds satisfied (to ``feasibility``, absolute, sigma^2 units), i.e.
     primal and dual feasible with complementary slackness. Rattlers start from ``rattler_s`` ((N, d), e.g. an
     interior point, whose rattlers sit inside their cages; default 0) and are pushed out of rows they violate, or
     placed by a small LP when pushing does not settle them; rattlers that find no place join the network with their
-    d tightest rows and the solve starts again (:data:`MAX_PROMOTIONS` times). ``fixed`` ((N, d) of -1 / 0 / +1)
-    predicts s components of stable particles held at their lower / upper s bound: each one's bound row starts in the
-    basis in place of a contact, and leaves it by a pivot like a contact where its multiplier is negative (the
-    returned solution's ``held`` says which components the final vertex holds). Anything else -- a singular
-    system, more than ``max_pivots`` pivots in all attempts -- returns None and the caller solves the LP with HiGHS;
-    the reasons are appended to ``why`` (a list, if given), for the LP's failure log. Near convergence the active
-    set barely changes, and this replaces a HiGHS solve by a factorisation and a few solves (docs/calippso.md §5.4).
+    d tightest rows and the solve starts again from the vertex reached (:data:`MAX_PROMOTIONS` times). ``fixed``
+    ((N, d) of -1 / 0 / +1) predicts s components of stable particles held at their lower / upper s bound: each
+    one's bound row starts in the basis in place of a contact, and leaves it by a pivot like a contact where its
+    multiplier is negative (the returned solution's ``held`` says which components the final vertex holds). Anything
+    else -- a singular system, more than ``max_pivots`` pivots in all attempts -- returns None and the caller solves
+    the LP with HiGHS; the reasons are appended to ``why`` (a list, if given), for the LP's failure log. Near
+    convergence the active set barely changes, and this replaces a HiGHS solve by a factorisation and a few solves
+    (docs/calippso.md §5.4).
     """
     why = [] if why is None else why
     t0 = time.perf_counter()
-    # one budget for the whole solve: an attempt after a promotion pivots from scratch, and at N = 10^4 three attempts
-    # of the full budget cost several HiGHS solves (docs §5.4)
+    # one budget for the whole solve: at N = 10^4 three attempts of the full budget cost several HiGHS solves
+    # (docs §5.4)
     budget = allowed = 10 if max_pivots is None else max_pivots
     for promotion in range(MAX_PROMOTIONS + 1):
         stuck: dict = {}
@@ -325,6 +326,11 @@ def solve_active_set(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, 
         if promoted is None:
             return _fail(why, "a predicted rattler that found no place has fewer than d rows with the network")
         extra_keys, rattler = promoted
+        if "vertex_keys" in stuck:
+            # the next round starts from the vertex this one reached, where the promoted rattlers' rows leave every
+            # other unknown and dual as they were, so it pivots only for what the newcomers change; from the first
+            # prediction it would pay this round's pivots again (docs §5.4)
+            contact_keys, fixed = stuck["vertex_keys"], stuck["vertex_held"]
         contact_keys = np.sort(np.concatenate([contact_keys, extra_keys]))
         why.append(f"{extra_keys.size // rij.shape[1]} rattler(s) joined the network")
     return None
@@ -368,6 +374,9 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         contact_rows = system.stable_rows[system.basis[system.basis < system.m_pair]]
         active = np.zeros(len(pi), dtype=bool)
         active[contact_rows] = True
+        held = _held_at_vertex(system, n, rij.shape[1])
+        if np.count_nonzero(held) + contact_rows.size == system.basis.size:  # no Gamma bound in the basis
+            stuck.update(vertex_keys=pair_keys(pi, pj, n)[contact_rows], vertex_held=held)
         slack = _settle_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, active, s_bound, feasibility, stuck)
     except _NoVertex as failure:
         return _fail(why, str(failure))
@@ -377,7 +386,6 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
     duals[contact_rows] = np.maximum(lam[system.basis < system.m_pair], 0.0)
     method = f"active-set+{pivots}" + (f"+{relaxed}relaxed" if relaxed else "") + (
         f"+{bound_pivots}bounds" if bound_pivots else "")
-    held = _held_at_vertex(system, n, rij.shape[1])
     return LPSolution(s, inflation, duals, time.perf_counter() - t0, method, held=held)
 
 
