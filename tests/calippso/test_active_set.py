@@ -223,13 +223,15 @@ def test_forced_active_set_failure_falls_back_to_highs(monkeypatch, ls_fast_256)
 
 def test_the_previous_network_is_not_tried_after_an_lp_that_changed_more_contacts_than_its_pivots(monkeypatch,
                                                                                                     ls_fast_256):
-    """Each contact that changes between two LPs takes at least one pivot of the shortcut, and a creeping flow goes
-    on changing as many: at N = 10^4 the LS outputs' LPs changed 250-470 contacts each, and every attempt from the
-    previous network failed (200 pivots, 6-45 s each, docs/calippso.md §5.4). So after an LP that changed more
-    contacts than the shortcut's pivots, the next goes straight to HiGHS. Here the pivots are capped at 20 on the
-    creeping N = 256 input, whose LPs change 15-41 contacts: the shortcut is tried exactly after the LPs that changed
-    at most 20, and the run reaches the certificate of the default one."""
+    """Each contact that changes between two LPs takes pivots of the shortcut (up to 5.4 each where it succeeded at
+    N = 10^4), and a creeping flow goes on changing as many: there every one of 42 attempts after an LP that changed
+    70-200 contacts failed (200 pivots, ~20 CPU-s each, docs/calippso.md §5.4). So after an LP that changed more
+    contacts than a PIVOTS_PER_CHANGE-th of the shortcut's pivots, the next goes straight to HiGHS. Here the pivots
+    are capped at 20 PIVOTS_PER_CHANGE on the creeping N = 256 input, whose LPs change 15-41 contacts: the shortcut
+    is tried exactly after the LPs that changed at most 20, and the run reaches the certificate of the default
+    one."""
     import spherejam.calippso.run as run_module
+    from spherejam.calippso.active_set import PIVOTS_PER_CHANGE
 
     ref = run_calippso(ls_fast_256, solver="hipo", warm_start=False)
     checked: list[int] = []  # LPs checked so far, at each shortcut attempt
@@ -244,7 +246,7 @@ def test_the_previous_network_is_not_tried_after_an_lp_that_changed_more_contact
         tried.append(len(checked) + 1)  # the LP this attempt solves
         return solve(*args, **kwargs)
 
-    monkeypatch.setattr(run_module, "network_pivot_limit", lambda n: 20)
+    monkeypatch.setattr(run_module, "network_pivot_limit", lambda n: 20 * PIVOTS_PER_CHANGE)
     monkeypatch.setattr(run_module, "_check", counted_check)
     monkeypatch.setattr(run_module, "solve_active_set", recorded)
     res = run_calippso(ls_fast_256, solver="hipo", warm_start=False)

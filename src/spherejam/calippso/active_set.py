@@ -130,6 +130,13 @@ MOST_FIXED_PER_PIVOT = 10
 REFACTOR_EVERY = 50
 
 
+#: Pivots the shortcut from the previous network is taken to need for each contact the LP before it changed: it is
+#: tried only where the last LP's changes times this fit in :func:`network_pivot_limit`. At N = 1e4 its successes
+#: took 0-5.4 pivots per change, after LPs that changed 2-54 contacts; after LPs that changed 70-200 every one of 42
+#: attempts failed, ~20 CPU-s each (docs/calippso.md §5.4).
+PIVOTS_PER_CHANGE = 3
+
+
 def network_pivot_limit(n: int) -> int:
     """Pivots allowed to an active-set solve of the previous LP's network where HiGHS has no warm start (N
     particles): :data:`MAX_PIVOTS` up to N = 4000, then falling as 1/N to 100 (200 at N = 10^4, 122 at N = 16384).

@@ -32,7 +32,8 @@ from ..core.history import History
 from ..core.neighbours import Frame, pairs_within
 from ..core.packing import DEFAULT_OVERLAP_TOLERANCE, Packing
 from ..core.progress import Progress
-from .active_set import network_pivot_limit, network_prediction, solve_active_set, vertex_prediction
+from .active_set import (PIVOTS_PER_CHANGE, network_pivot_limit, network_prediction, solve_active_set,
+                         vertex_prediction)
 from .constraints import Pins, as_pins, closable_reach, cutoff_rows, pair_keys
 from .creep import creep_message, creeping
 from .generation import GAMMA_GUESS_FACTOR, near_rows, solve_generated
@@ -770,10 +771,11 @@ def _solve(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -> LPSo
     # a warm-started HiGHS solve is faster than the active-set pivots (docs §5.4), so the main loop uses the
     # shortcut only when there is no basis to start from
     cold = loop.basis is None
-    if loop.predicted is not None and cold and loop.contact_swaps > network_pivot_limit(cfg.n):
-        # each contact that changes takes a pivot at least, and the flow that changed them goes on (docs §5.4)
+    if loop.predicted is not None and cold and loop.contact_swaps * PIVOTS_PER_CHANGE > network_pivot_limit(cfg.n):
+        # each contact that changes takes pivots, and the flow that changed them goes on (docs §5.4)
         _log.info("calippso it %d: the previous contact network is not tried: the last LP changed %d contacts, more "
-                  "than its %d pivots", iteration + 1, loop.contact_swaps, network_pivot_limit(cfg.n))
+                  "than its %d pivots allow (%d each)", iteration + 1, loop.contact_swaps, network_pivot_limit(cfg.n),
+                  PIVOTS_PER_CHANGE)
     elif loop.predicted is not None and (cold or lp.regime == 1):
         t_try = time.perf_counter()
         why: list[str] = []
