@@ -357,17 +357,11 @@ def first_promoting_solve(monkeypatch, packing):
     return promoting[0]
 
 
-def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_fast_256):
-    """An attempt that turns rattlers into members starts pivoting again from the new prediction; its pivots come
-    out of the same budget as those before (at N = 10^4 three attempts of the whole budget kept one LP pivoting for
-    over 20 CPU-minutes, docs/calippso.md §5.4). A solve of the creeping N = 256 input that promotes is certified
-    within 500 pivots; given one pivot fewer than all its attempts took, though each attempt alone took fewer than
-    that, it gives up, and its attempts together never pivot more than it was given."""
+def pivots_of_each_attempt(monkeypatch) -> list[int]:
+    """The list the active-set module appends each attempt's pivots to (the attempts that reach a vertex)."""
     import spherejam.calippso.active_set as active_set
 
-    args, kwargs, _ = first_promoting_solve(monkeypatch, ls_fast_256)
-
-    pivots: list[int] = []  # of each attempt that reached a vertex
+    pivots: list[int] = []
     pivot = active_set._pivot
 
     def counted(system, feasibility, max_pivots):
@@ -376,6 +370,20 @@ def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_f
         return out
 
     monkeypatch.setattr(active_set, "_pivot", counted)
+    return pivots
+
+
+def test_the_attempts_of_one_active_set_solve_share_its_pivots(monkeypatch, ls_fast_256):
+    """An attempt after rattlers joined the network pivots on from the vertex the one before reached; its pivots
+    come out of the same budget as those before (at N = 10^4 three attempts of the whole budget kept one LP pivoting for
+    over 20 CPU-minutes, docs/calippso.md §5.4). A solve of the creeping N = 256 input that promotes is certified
+    within 500 pivots; given one pivot fewer than all its attempts took, though each attempt alone took fewer than
+    that, it gives up, and its attempts together never pivot more than it was given."""
+    import spherejam.calippso.active_set as active_set
+
+    args, kwargs, _ = first_promoting_solve(monkeypatch, ls_fast_256)
+
+    pivots = pivots_of_each_attempt(monkeypatch)
     whole = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
     assert whole is not None and "promoted" in whole.method
     assert len(pivots) >= 2 and min(pivots) >= 1 and sum(pivots) <= 500, pivots
@@ -423,15 +431,7 @@ def test_a_promotion_round_starts_from_the_vertex_the_round_before_reached(monke
     import spherejam.calippso.active_set as active_set
 
     args, kwargs, _ = first_promoting_solve(monkeypatch, ls_fast_256)
-    pivots: list[int] = []  # of each attempt that reached a vertex
-    pivot = active_set._pivot
-
-    def counted(system, feasibility, max_pivots):
-        out = pivot(system, feasibility, max_pivots)
-        pivots.append(out[2])
-        return out
-
-    monkeypatch.setattr(active_set, "_pivot", counted)
+    pivots = pivots_of_each_attempt(monkeypatch)
     sol = active_set.solve_active_set(*args, **{**kwargs, "max_pivots": 500})
     assert sol is not None and "+1promoted" in sol.method
     assert len(pivots) == 2 and pivots[0] >= 30 and pivots[1] < pivots[0] / 3, pivots
