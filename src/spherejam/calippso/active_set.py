@@ -368,8 +368,8 @@ def _promote(rij, sigma2, pi, pj, n, rattler, stuck):
 def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pinned, inflation_bounds,
                   feasibility, max_pivots, rattler_s, fixed, why, stuck):
     """One attempt of :func:`solve_active_set`, of at most ``max_pivots`` pivots; ``stuck`` receives the pivots
-    taken (``pivots``) and, when only the rattlers' placement fails, the vertex (``s``, ``inflation``) and the
-    rattlers still in violated rows (``rattlers``)."""
+    taken (``pivots``) and, when only the rattlers' placement fails, the vertex (``s``, ``inflation``; as a
+    prediction ``vertex_keys``, ``vertex_held``) and the rattlers still in violated rows (``rattlers``)."""
     t0 = time.perf_counter()
     try:
         system = _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinned, inflation_bounds,
@@ -382,10 +382,12 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         active = np.zeros(len(pi), dtype=bool)
         active[contact_rows] = True
         held = _held_at_vertex(system, n, rij.shape[1])
-        if np.count_nonzero(held) + contact_rows.size == system.basis.size:  # no Gamma bound in the basis
-            stuck.update(vertex_keys=pair_keys(pi, pj, n)[contact_rows], vertex_held=held)
         slack = _settle_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, active, s_bound, feasibility, stuck)
     except _NoVertex as failure:
+        pair_basis = system.basis[system.basis < system.m_pair] if "rattlers" in stuck else None
+        if pair_basis is not None and np.count_nonzero(held) + pair_basis.size == system.basis.size:
+            # the vertex as a prediction, for the next round (no Gamma bound in its basis, which no prediction holds)
+            stuck.update(vertex_keys=system.keys[pair_basis], vertex_held=held)
         return _fail(why, str(failure))
     if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
         return _fail(why, "a row or an s bound is violated at the vertex")
@@ -412,6 +414,7 @@ class _ContactSystem:
     m_pair: int
     basis: np.ndarray  # rows of a, one per unknown: replaced in place by the pivots
     stable_rows: np.ndarray  # the LP's rows among stable particles, in the order of a's pair rows
+    keys: np.ndarray  # their pair keys (constraints.pair_keys)
     free_comp: np.ndarray  # (N d,) the s components that are unknowns
 
 
@@ -454,7 +457,7 @@ def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinn
     if basis.size != contact_keys.size:  # a predicted contact left the cutoff or involves a particle now a rattler
         raise _NoVertex(f"{contact_keys.size - basis.size} predicted contacts are not rows among stable particles")
     basis = np.concatenate([basis, stable_rows.size + held_rows])
-    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, free_comp)
+    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, key, free_comp)
 
 
 def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):
