@@ -177,6 +177,29 @@ def test_uncertified_vertex_falls_back_to_simplex_from_its_basis(monkeypatch, ls
     np.testing.assert_allclose(np.sort(new.forces), np.sort(old.forces), rtol=1e-5)
 
 
+def test_an_uncertified_vertex_steps_from_its_interior_point_where_its_fallback_is_a_crossover(monkeypatch,
+                                                                                                 ls_jammed_256):
+    """From N = PREDICTED_MAX_N on (set at this packing's N, so that the test takes seconds) an uncertified vertex
+    (forced: the active-set solve refuses every prediction) would fall back to a second interior point with
+    crossover. Above the interior-step threshold it steps from its own interior point instead; below it the LP is the
+    crossover's vertex, which the convergence test needs. So the run takes the interior-step path's LPs exactly,
+    and ends on a valid certificate (docs/calippso.md §5.2)."""
+    import spherejam.calippso.lp as lp
+    from spherejam.calippso.solution import METHOD_CODES
+
+    monkeypatch.setattr(lp, "solve_active_set", lambda *args, **kwargs: None)
+    monkeypatch.setattr(lp, "PREDICTED_MAX_N", ls_jammed_256.n)
+    kw = dict(solver="hipo", crossover=False, warm_start=False, active_set=False)
+    new = run_calippso(ls_jammed_256, **kw)
+    methods = new.history["method"]
+    assert np.any(methods == METHOD_CODES["interior"]) and methods[-1] == METHOD_CODES["ipm"]
+    assert set(methods.tolist()) == {METHOD_CODES["interior"], METHOD_CODES["ipm"]}
+    assert_jammed(new, 3)
+    steps = run_calippso(ls_jammed_256, interior_steps=True, **kw)
+    np.testing.assert_array_equal(methods, steps.history["method"])
+    assert new.phi == steps.phi
+
+
 def test_row_check_is_relative_to_the_pairs_sigma2():
     # Two pairs, each exceeding its row by the same absolute e = 6.5e-9 (the reproduction run's case): for the pair of
     # small spheres (sigma^2 = 0.13) that overlaps the step by ~2.5e-8, beyond the step's overlap guard, so the check

@@ -217,7 +217,8 @@ def warm_pivot_limit(n: int) -> int:
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
-             crossover: bool = True, cuts: bool = False, interior: bool = False, scale: float = 1.0) -> LPSolution:
+             crossover: bool = True, cuts: bool = False, interior: bool = False, interior_fallback: bool = False,
+             scale: float = 1.0) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0 (or the
@@ -234,8 +235,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     the LP is solved once more with dual simplex (IPX after a simplex cold solve) before giving up
     (docs/calippso.md §6). With ``interior`` the interior point itself is returned (method "interior", no vertex,
     no basis: an intermediate step, docs/calippso.md §10) once its rows and bounds are checked; its duals are not a
-    vertex's and certify nothing. Should it fail, the attempts above follow. With ``scale`` < 1 HiGHS gets the LP in
-    Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's cancellation) and in units of
+    vertex's and certify nothing. Should it fail, the attempts above follow. With ``interior_fallback`` an
+    uncertified vertex whose fallback would be a crossover (N >= :data:`PREDICTED_MAX_N`) returns its interior point as
+    such a step instead: at N = 16384 a crossover ran for over 40 CPU-min (docs/calippso.md §5.2). With ``scale`` < 1
+    HiGHS gets the LP in Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's cancellation) and in units of
     ``scale`` (:data:`NEAR_CONVERGED_SCALE`): the same LP, its solution mapped back, for LPs whose gains are below
     HiGHS's absolute tolerances (docs/calippso.md §5.8).
     """
@@ -277,6 +280,13 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
                 return vertex
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
+            if interior_fallback and n >= PREDICTED_MAX_N:
+                step, not_a_step = _interior_point(h, model, tolerance)
+                if not_a_step is None:
+                    step.solve_time, step.solver = time.perf_counter() - t0, o["solver"]
+                    step.failed = "; ".join(failures)
+                    return step
+                failures.append(f"interior: {not_a_step}")
             continue
         if status == highspy.HighsModelStatus.kOptimal:
             optimum, problem = _checked_optimum(h, model, tolerance)

@@ -55,7 +55,9 @@ CHECKPOINT_KIND = "calippso"
 #: network to certify (no contact among non-rattlers, or forces that do not balance: :func:`has_force_network`).
 STOP_REASONS = ("converged", "max_iterations", "no_force_network")
 #: With ``interior_steps``, an LP whose previous sqrt(Gamma) - 1 exceeds this is an intermediate step taken from the
-#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10).
+#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10). Above it, on
+#: either path, an LP whose interior point's vertex is not certified steps from that interior point where the
+#: alternative is a crossover (lp.solve_lp's ``interior_fallback``, docs §5.2).
 INTERIOR_STEP_MIN = 1e-9
 #: A cold HiGHS solve (N >= SCALED_MIN_N: no warm start, lp.WARM_START_MAX_N) gets its LP in lp.NEAR_CONVERGED_SCALE
 #: units once the previous sqrt(Gamma) - 1 is below SCALED_BELOW: at 1e-11 HiGHS's interior point predicted nothing
@@ -817,6 +819,7 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
                        inflation_bounds=(lp.inflation_min, lp.inflation_max), tolerance=cfg.solver_tolerance,
                        options=cfg.solver_options, iteration=iteration, warm=previous.basis if cuts else warm,
                        solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts,
+                       interior_fallback=rows is None and loop.sqrt_inflation_prev - 1.0 > INTERIOR_STEP_MIN,
                        scale=_lp_scale(loop, cfg))
         if previous is None:
             first.append(sol)
