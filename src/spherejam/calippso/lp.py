@@ -238,9 +238,9 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     vertex's and certify nothing. Should it fail, the attempts above follow. With ``interior_fallback`` an
     uncertified vertex whose fallback would be a crossover (N >= :data:`PREDICTED_MAX_N`) returns its interior point as
     such a step instead: at N = 16384 a crossover ran for over 40 CPU-min (docs/calippso.md §5.2). With ``scale`` < 1
-    HiGHS gets the LP in Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's cancellation) and in units of
-    ``scale`` (:data:`NEAR_CONVERGED_SCALE`): the same LP, its solution mapped back, for LPs whose gains are below
-    HiGHS's absolute tolerances (docs/calippso.md §5.8).
+    HiGHS gets the LP in Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's
+    cancellation) and in units of ``scale`` (:data:`NEAR_CONVERGED_SCALE`): the same LP, its solution mapped back, for
+    LPs whose gains are below HiGHS's absolute tolerances (docs/calippso.md §5.8).
     """
     require(solver in SOLVERS, "solver", solver, f"must be one of {', '.join(SOLVERS)}")
     import highspy
