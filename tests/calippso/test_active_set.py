@@ -45,6 +45,31 @@ def test_basis_inverse_tracks_row_replacements_like_a_fresh_lu():
     assert len(binv.updates) == 7  # refactorised once, on the REFACTOR_EVERY-th replacement
 
 
+def test_a_structurally_singular_basis_is_refused_before_its_lu(monkeypatch):
+    """A predicted basis in which one sphere's columns are empty (N = 16384's LP 12: SuperLU took 83 CPU-s to
+    refuse it) is refused by its structural rank, before any factorisation; a nonsingular one is factorised and
+    solves."""
+    from scipy.sparse import csr_matrix
+
+    from spherejam.calippso import active_set
+
+    rng = np.random.default_rng(11)
+    n = 30
+    dense = rng.normal(size=(2 * n, n)) + 10.0 * np.vstack([np.eye(n), np.eye(n)])
+    dense[:n, [4, 5, 6]] = 0.0  # the basis rows leave three columns (one sphere's components) empty
+    matrix = csr_matrix(dense)
+    factorise, factorised = active_set.BasisInverse._factorise, []
+    monkeypatch.setattr(active_set.BasisInverse, "_factorise", lambda self: factorised.append(1) or factorise(self))
+    with pytest.raises(RuntimeError, match="structural rank 27 of 30"):
+        active_set.BasisInverse(matrix, np.arange(n))
+    assert not factorised
+    basis = np.concatenate([np.arange(n)[np.r_[0:4, 7:n]], n + np.array([4, 5, 6])])
+    binv = active_set.BasisInverse(matrix, basis)
+    assert factorised
+    b = rng.normal(size=n)
+    np.testing.assert_allclose(dense[basis] @ binv.solve(b), b, atol=1e-9)
+
+
 def test_a_basis_whose_lu_fills_in_is_refactorised_less_often_and_still_solves_exactly():
     """A fresh LU pays off only once the product-form updates hold as many numbers as the LU factors: a basis with
     much fill-in (here a dense one, as the 3D contact networks of N = 10^4 are relative to their N) waits longer
