@@ -391,10 +391,10 @@ def _solve_vertex(rij, sigma2, pi, pj, n, contact_keys, rattler, *, s_bound, pin
         held = _held_at_vertex(system, n, rij.shape[1])
         slack = _settle_rattlers(rij, sigma2, pi, pj, s, inflation, rattler, active, s_bound, feasibility, stuck)
     except _NoVertex as failure:
-        pair_basis = system.basis[system.basis < system.m_pair] if "rattlers" in stuck else None
-        if pair_basis is not None and np.count_nonzero(held) + pair_basis.size == system.basis.size:
-            # the vertex as a prediction, for the next round (no Gamma bound in its basis, which no prediction holds)
-            stuck.update(vertex_keys=system.keys[pair_basis], vertex_held=held)
+        # only the rattlers found no place: the vertex stands, as the next round's prediction, unless a Gamma bound
+        # is in its basis, which no prediction holds
+        if "rattlers" in stuck and np.count_nonzero(held) + contact_rows.size == system.basis.size:
+            stuck.update(vertex_keys=pair_keys(pi, pj, n)[contact_rows], vertex_held=held)
         return _fail(why, str(failure))
     if not (np.min(slack[~active], initial=0.0) >= -feasibility and np.all(np.abs(s) <= s_bound)):  # NaN fails
         return _fail(why, "a row or an s bound is violated at the vertex")
@@ -421,7 +421,6 @@ class _ContactSystem:
     m_pair: int
     basis: np.ndarray  # rows of a, one per unknown: replaced in place by the pivots
     stable_rows: np.ndarray  # the LP's rows among stable particles, in the order of a's pair rows
-    keys: np.ndarray  # their pair keys (constraints.pair_keys)
     free_comp: np.ndarray  # (N d,) the s components that are unknowns
 
 
@@ -464,7 +463,7 @@ def _contact_system(rij, sigma2, pi, pj, n, contact_keys, rattler, s_bound, pinn
     if basis.size != contact_keys.size:  # a predicted contact left the cutoff or involves a particle now a rattler
         raise _NoVertex(f"{contact_keys.size - basis.size} predicted contacts are not rows among stable particles")
     basis = np.concatenate([basis, stable_rows.size + held_rows])
-    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, key, free_comp)
+    return _ContactSystem(a_all, rhs_all, stable_rows.size, basis, stable_rows, free_comp)
 
 
 def _pivot(system: _ContactSystem, feasibility: float, max_pivots: int):

@@ -266,11 +266,9 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             continue
         status = h.getModelStatus()
         if method == "interior":
-            step, problem = _interior_point(h, model, tolerance)
-            if problem is None:
-                step.solve_time, step.solver = time.perf_counter() - t0, o["solver"]
+            step = _interior_step(h, model, tolerance, t0, o["solver"], failures)
+            if step is not None:
                 return step
-            failures.append(f"interior ({h.modelStatusToString(status)}): {problem}")
             continue
         if method == "vertex" and status not in (highspy.HighsModelStatus.kInfeasible,
                                                  highspy.HighsModelStatus.kUnbounded):
@@ -280,13 +278,10 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
                 return vertex
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
-            if interior_fallback and n >= PREDICTED_MAX_N:
-                step, not_a_step = _interior_point(h, model, tolerance)
-                if not_a_step is None:
-                    step.solve_time, step.solver = time.perf_counter() - t0, o["solver"]
-                    step.failed = "; ".join(failures)
+            if interior_fallback and "predicted" not in (m for m, _ in attempts):  # its fallback: a crossover
+                step = _interior_step(h, model, tolerance, t0, o["solver"], failures)
+                if step is not None:
                     return step
-                failures.append(f"interior: {not_a_step}")
             continue
         if status == highspy.HighsModelStatus.kOptimal:
             optimum, problem = _checked_optimum(h, model, tolerance)
@@ -456,6 +451,18 @@ def _certified_vertex(h, model: _Model, tolerance: float):
         vertex.basis = _vertex_basis(vertex, guess[1], vertex.held, pinned, keys)  # its bounds after the pivots
         vertex.method = "vertex+" + vertex.method.partition("+")[2]  # + its pivots and how
     return vertex, predicted, problem
+
+
+def _interior_step(h, model: _Model, tolerance: float, t0: float, solver: str, failures: list[str]):
+    """The interior point of a solve without crossover as an intermediate step (:func:`_interior_point`), timed
+    from ``t0`` and carrying the ``failures`` before it; None, with what is wrong appended to ``failures``, if it is
+    not one."""
+    step, problem = _interior_point(h, model, tolerance)
+    if problem is not None:
+        failures.append(f"interior ({h.modelStatusToString(h.getModelStatus())}): {problem}")
+        return None
+    step.solve_time, step.solver, step.failed = time.perf_counter() - t0, solver, "; ".join(failures)
+    return step
 
 
 def _interior_point(h, model: _Model, tolerance: float):
