@@ -177,27 +177,30 @@ def test_uncertified_vertex_falls_back_to_simplex_from_its_basis(monkeypatch, ls
     np.testing.assert_allclose(np.sort(new.forces), np.sort(old.forces), rtol=1e-5)
 
 
-def test_an_uncertified_vertex_steps_from_its_interior_point_where_its_fallback_is_a_crossover(monkeypatch,
-                                                                                                 ls_jammed_256):
+def test_an_uncertified_vertex_steps_from_its_interior_point_unless_the_lp_may_be_the_last(monkeypatch,
+                                                                                           ls_jammed_256):
     """From N = PREDICTED_MAX_N on (set at this packing's N, so that the test takes seconds) an uncertified vertex
     (forced: the active-set solve refuses every prediction) would fall back to a second interior point with
-    crossover. Above the interior-step threshold it steps from its own interior point instead; below it the LP is the
-    crossover's vertex, which the convergence test needs. So the run takes the interior-step path's LPs exactly,
-    and ends on a valid certificate (docs/calippso.md §5.2)."""
+    crossover. It steps from its own interior point instead, unless that point's sqrt(Gamma) - 1 is within
+    LAST_LP_MARGIN of the convergence tolerance: only such an LP can be the run's last, and its test needs the
+    crossover's vertex. So exactly the LPs that gained more are interior steps, whatever the LP before gained, and
+    the run ends on a valid certificate (docs/calippso.md §5.2). The rule used to be the previous LP's gain, which
+    sent LPs that could not converge to crossovers of 400-1200 CPU-s at N = 1e4."""
     import spherejam.calippso.lp as lp
+    from spherejam.calippso.run import LAST_LP_MARGIN
     from spherejam.calippso.solution import METHOD_CODES
 
     monkeypatch.setattr(lp, "solve_active_set", lambda *args, **kwargs: None)
     monkeypatch.setattr(lp, "PREDICTED_MAX_N", ls_jammed_256.n)
-    kw = dict(solver="hipo", crossover=False, warm_start=False, active_set=False)
-    new = run_calippso(ls_jammed_256, **kw)
+    tolerance = 1e-12
+    new = run_calippso(ls_jammed_256, solver="hipo", crossover=False, warm_start=False, active_set=False,
+                       inflation_tolerance=tolerance)
     methods = new.history["method"]
-    assert np.any(methods == METHOD_CODES["interior"]) and methods[-1] == METHOD_CODES["ipm"]
     assert set(methods.tolist()) == {METHOD_CODES["interior"], METHOD_CODES["ipm"]}
+    gained = new.history["sqrt_inflation_minus_1"]
+    np.testing.assert_array_equal(methods == METHOD_CODES["interior"], gained > LAST_LP_MARGIN * tolerance)
+    assert new.stop_reason == "converged" and methods[-1] == METHOD_CODES["ipm"]
     assert_jammed(new, 3)
-    steps = run_calippso(ls_jammed_256, interior_steps=True, **kw)
-    np.testing.assert_array_equal(methods, steps.history["method"])
-    assert new.phi == steps.phi
 
 
 def test_row_check_is_relative_to_the_pairs_sigma2():

@@ -7,6 +7,7 @@ Every solution HiGHS calls optimal is checked here once more (rows, bounds, forc
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -217,8 +218,8 @@ def warm_pivot_limit(n: int) -> int:
 
 def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, tolerance=1e-9, options=None,
              iteration=-1, warm: LPBasis | None = None, solver: str = "hipo", threads: int = 1,
-             crossover: bool = True, cuts: bool = False, interior: bool = False, interior_fallback: bool = False,
-             scale: float = 1.0) -> LPSolution:
+             crossover: bool = True, cuts: bool = False, interior: bool = False,
+             interior_fallback: float | None = None, scale: float = 1.0) -> LPSolution:
     """Solve one CALiPPSO LP (minimise -Gamma) with HiGHS; raise :class:`SimulationError` unless optimal.
 
     ``s_bound`` is the per-component bound, ``pinned`` the particle whose displacement is fixed to 0 (or the
@@ -237,7 +238,8 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
     no basis: an intermediate step, docs/calippso.md §10) once its rows and bounds are checked; its duals are not a
     vertex's and certify nothing. Should it fail, the attempts above follow. With ``interior_fallback`` an
     uncertified vertex whose fallback would be a crossover (N >= :data:`PREDICTED_MAX_N`) returns its interior point as
-    such a step instead: at N = 16384 a crossover ran for over 40 CPU-min (docs/calippso.md §5.2). With ``scale`` < 1
+    such a step instead, if that point's sqrt(Gamma) - 1 exceeds ``interior_fallback``: at N = 16384 a crossover ran
+    for over 40 CPU-min, and at N = 1e4 they cost 400-1200 CPU-s each (docs/calippso.md §5.2). With ``scale`` < 1
     HiGHS gets the LP in Gamma - 1 (each row's right-hand side |r|^2 - sigma^2 computed here, not by HiGHS's
     cancellation) and in units of ``scale`` (:data:`NEAR_CONVERGED_SCALE`): the same LP, its solution mapped back, for
     LPs whose gains are below HiGHS's absolute tolerances (docs/calippso.md §5.8).
@@ -278,10 +280,13 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
                 vertex.solve_time, vertex.solver = time.perf_counter() - t0, o["solver"]
                 return vertex
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
-            if interior_fallback and "predicted" not in (m for m, _ in attempts):  # its fallback: a crossover
+            if interior_fallback is not None and "predicted" not in (m for m, _ in attempts):  # else a crossover
                 step = _interior_step(h, model, tolerance, t0, o["solver"], failures)
-                if step is not None:
+                if step is not None and math.sqrt(step.inflation) - 1.0 > interior_fallback:
                     return step
+                if step is not None:  # this LP may be the run's last, whose convergence test needs a vertex
+                    failures.append(f"interior: sqrt(Gamma) - 1 = {math.sqrt(step.inflation) - 1.0:.1e}, not above "
+                                    f"{interior_fallback:.1e}")
             continue
         if status == highspy.HighsModelStatus.kOptimal:
             optimum, problem = _checked_optimum(h, model, tolerance)

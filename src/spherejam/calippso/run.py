@@ -55,10 +55,12 @@ CHECKPOINT_KIND = "calippso"
 #: network to certify (no contact among non-rattlers, or forces that do not balance: :func:`has_force_network`).
 STOP_REASONS = ("converged", "max_iterations", "no_force_network")
 #: With ``interior_steps``, an LP whose previous sqrt(Gamma) - 1 exceeds this is an intermediate step taken from the
-#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10). Above it, on
-#: either path, an LP whose interior point's vertex is not certified steps from that interior point where the
-#: alternative is a crossover (lp.solve_lp's ``interior_fallback``, docs §5.2).
+#: interior point; below it the LPs are vertices again, which the convergence test needs (docs §10).
 INTERIOR_STEP_MIN = 1e-9
+#: On either path, an LP whose interior point's vertex is not certified steps from that interior point where the
+#: alternative is a crossover (lp.solve_lp's ``interior_fallback``), unless the point's sqrt(Gamma) - 1 is within this
+#: factor of ``inflation_tolerance``: only such an LP can be the run's last, whose test needs a vertex (docs §5.2).
+LAST_LP_MARGIN = 10.0
 #: A cold HiGHS solve (N >= SCALED_MIN_N: no warm start, lp.WARM_START_MAX_N) gets its LP in lp.NEAR_CONVERGED_SCALE
 #: units once the previous sqrt(Gamma) - 1 is below SCALED_BELOW: at 1e-11 HiGHS's interior point predicted nothing
 #: and its crossover failed, while at 1e-10 - 5e-10 it gave the scaled solve's vertex in 0.4-0.8 of its time
@@ -377,8 +379,9 @@ def run_calippso(
     report = packing.check(overlap_tolerance)
     if not report.ok:
         raise OverlapError(f"CALiPPSO input: {report}")
-    cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-                    threads, crossover, active_set, warm_start, constraint_generation, schedule, interior_steps)
+    cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance, solver_tolerance,
+                    solver_options, solver, threads, crossover, active_set, warm_start, constraint_generation,
+                    schedule, interior_steps)
     run = _Run.start(packing, cfg, initial_sqrt_inflation)
     parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
                              displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
@@ -427,8 +430,8 @@ def no_force_network_message(result: CalippsoResult) -> str:
 # --- setting a run up and assembling its result -----------------------------------------------------------------------
 
 
-def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_tolerance, solver_options, solver,
-              threads, crossover, active_set, warm_start, constraint_generation, schedule,
+def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance, solver_tolerance,
+              solver_options, solver, threads, crossover, active_set, warm_start, constraint_generation, schedule,
               interior_steps) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
@@ -444,7 +447,8 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, solver_to
         n=n, dim=packing.dim, unit=unit, box=box, period=period, walls=walls,
         cutoff0=2.0 if cutoff is None else float(cutoff),
         s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
-        solver_tolerance=solver_tolerance, solver_options=solver_options, solver=solver, threads=int(threads),
+        inflation_tolerance=float(inflation_tolerance), solver_tolerance=solver_tolerance,
+        solver_options=solver_options, solver=solver, threads=int(threads),
         crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
         constraint_generation=bool(constraint_generation), schedule=schedule, interior_steps=bool(interior_steps),
         warm_start=warm_start and n < WARM_START_MAX_N,  # no basis is kept either: the force LP starts cold too
@@ -664,6 +668,7 @@ class _Settings:
     s_bound: float | None  # a fixed bound in units of the current largest diameter (None: the regimes)
     regime_thresholds: tuple[float, float]
     zero_force: float
+    inflation_tolerance: float  # the convergence test's, on sqrt(Gamma) - 1 (docs §2.1)
     solver_tolerance: float
     solver_options: dict[str, Any] | None
     solver: str
@@ -819,7 +824,7 @@ def _solve_highs(lp: _LP, loop, cfg: _Settings, tally: _Tally, iteration: int) -
                        inflation_bounds=(lp.inflation_min, lp.inflation_max), tolerance=cfg.solver_tolerance,
                        options=cfg.solver_options, iteration=iteration, warm=previous.basis if cuts else warm,
                        solver=cfg.solver, threads=cfg.threads, crossover=cfg.crossover, cuts=cuts,
-                       interior_fallback=rows is None and loop.sqrt_inflation_prev - 1.0 > INTERIOR_STEP_MIN,
+                       interior_fallback=LAST_LP_MARGIN * cfg.inflation_tolerance if rows is None else None,
                        scale=_lp_scale(loop, cfg))
         if previous is None:
             first.append(sol)
