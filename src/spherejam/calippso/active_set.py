@@ -131,10 +131,10 @@ REFACTOR_EVERY = 50
 
 
 #: Pivots the shortcut from the previous network is taken to need for each contact the LP before it changed: it is
-#: tried only where the last LP's changes times this fit in :func:`network_pivot_limit`. At N = 1e4 its successes
-#: took 0-5.4 pivots per change, after LPs that changed 2-54 contacts; after LPs that changed 70-200 every one of 42
-#: attempts failed, ~20 CPU-s each (docs/calippso.md §5.4).
-PIVOTS_PER_CHANGE = 3
+#: tried only where the last LP's changes times this fit in :func:`network_pivot_limit` (40 changes at N = 1e4). On
+#: the held-out N = 1e4 run 24 of 25 attempts after LPs that changed <= 40 contacts succeeded, 5 of 22 after 41-66,
+#: and those 5 cost more than a HiPO vertex; after 70-200 all 42 attempts on record failed (docs/calippso.md §5.4).
+PIVOTS_PER_CHANGE = 5
 
 
 def network_pivot_limit(n: int) -> int:
