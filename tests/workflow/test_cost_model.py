@@ -89,9 +89,9 @@ def test_calippso_model_matches_the_measured_certification_times(monkeypatch):
     """Mean LPs per certification in the reproduction ladder (3.9, 6.8 and 14.7 at N = 250, 500, 1000), then through
     the mean of the two whole certifications of N = 10^4 MLS outputs (29 and 173 LPs: 101); CPU s per LP on the
     vertex path through 30 whole N = 1000 certifications (0.52) and the N = 4096 run's LPs (27.2), then, with no LP
-    warm-started, through the two N = 10^4 MLS outputs' whole certifications pooled (123.2); with interior steps through the same N = 1000 inputs' whole
-    certifications (IPX below N = 4096) and the N = 16384 run's interior steps (benchmarks/calippso_cost_fit.py,
-    docs/cluster.md §3). Each N is priced on the path that runs there."""
+    warm-started, through the two N = 10^4 MLS outputs' whole certifications pooled (123.2); with interior steps
+    through the same N = 1000 inputs' whole certifications (IPX below N = 4096) and the N = 16384 run's interior
+    steps (benchmarks/calippso_cost_fit.py, docs/cluster.md §3). Each N is priced on the path that runs there."""
     from spherejam.calippso.lp import WARM_START_MAX_N
     from spherejam.core import calippso_path
 
