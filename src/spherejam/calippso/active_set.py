@@ -83,8 +83,9 @@ def interior_point_prediction(pi, pj, n, dim, sigma2, duals, slack, s=None, col_
     score from its bound multiplier |col_dual| and its distance to the bound (with ``s``, ``col_dual`` and
     ``s_bound``): those scoring > 1 are predicted held at the bound (``fixed``: -1 / +1, else 0). Rows scoring > 1
     and the held components (as contacts with a wall) give the contact graph and its rattlers (outside the
-    (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score
-    are the predicted vertex, for :func:`solve_active_set` to certify.
+    (d+1)-core); of the rows among stable particles the d (N_s - 1) + 1 - (held components) with the highest score,
+    made to cover every unknown (:func:`covering_rows`), are the predicted vertex, for :func:`solve_active_set` to
+    certify.
     """
     m = len(pi)
     score = duals * sigma2 * m / np.maximum(slack / sigma2, 1e-300)
