@@ -282,11 +282,11 @@ def solve_lp(rij, sigma2, pi, pj, n, *, s_bound, pinned, inflation_bounds, toler
             failures.append(f"vertex ({h.modelStatusToString(status)}): {problem}")
             if interior_fallback is not None and "predicted" not in (m for m, _ in attempts):  # else a crossover
                 step = _interior_step(h, model, tolerance, t0, o["solver"], failures)
-                if step is not None and math.sqrt(step.inflation) - 1.0 > interior_fallback:
+                gain = None if step is None else math.sqrt(step.inflation) - 1.0
+                if gain is not None and gain > interior_fallback:
                     return step
-                if step is not None:  # this LP may be the run's last, whose convergence test needs a vertex
-                    failures.append(f"interior: sqrt(Gamma) - 1 = {math.sqrt(step.inflation) - 1.0:.1e}, not above "
-                                    f"{interior_fallback:.1e}")
+                if gain is not None:  # this LP may be the run's last, whose convergence test needs a vertex
+                    failures.append(f"interior: sqrt(Gamma) - 1 = {gain:.1e}, not above {interior_fallback:.1e}")
             continue
         if status == highspy.HighsModelStatus.kOptimal:
             optimum, problem = _checked_optimum(h, model, tolerance)

@@ -379,12 +379,12 @@ def run_calippso(
     report = packing.check(overlap_tolerance)
     if not report.ok:
         raise OverlapError(f"CALiPPSO input: {report}")
-    cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance, solver_tolerance,
-                    solver_options, solver, threads, crossover, active_set, warm_start, constraint_generation,
-                    schedule, interior_steps)
+    cfg = _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance,
+                    displacement_tolerance, solver_tolerance, solver_options, solver, threads, crossover, active_set,
+                    warm_start, constraint_generation, schedule, interior_steps)
     run = _Run.start(packing, cfg, initial_sqrt_inflation)
-    parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, inflation_tolerance,
-                             displacement_tolerance, overlap_tolerance, fine_tune, warm_start)
+    parameters = _parameters(cfg, run.loop.sqrt_inflation_prev, max_iterations, overlap_tolerance, fine_tune,
+                             warm_start)
     hashed = {k: v for k, v in parameters.items() if k not in RESUMABLE_CHANGES}
     if cfg.walls is not None:  # the cube's fingerprint stays as it was
         hashed["container"] = packing.container.to_dict()
@@ -396,11 +396,9 @@ def run_calippso(
     log = LPLog(lp_log)
     log.start(run.history.as_arrays())
     progress = Progress(f"calippso N={cfg.n} d={cfg.dim}", progress_interval)
-    converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
-                         progress, log)
+    converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, progress, log)
     while converged and _escape(run, cfg):  # converged, but not held: go on (bounded by max_iterations)
-        converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, inflation_tolerance, displacement_tolerance,
-                             progress, log)
+        converged = _iterate(run, cfg, ckpt, checkpoint, max_iterations, progress, log)
     if not converged and require_convergence:
         raise SimulationError(f"CALiPPSO did not converge in {max_iterations} iterations "
                               f"(last sqrt(Gamma)-1 = {run.history.last('sqrt_inflation_minus_1'):.3e}, "
@@ -430,9 +428,9 @@ def no_force_network_message(result: CalippsoResult) -> str:
 # --- setting a run up and assembling its result -----------------------------------------------------------------------
 
 
-def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance, solver_tolerance,
-              solver_options, solver, threads, crossover, active_set, warm_start, constraint_generation, schedule,
-              interior_steps) -> _Settings:
+def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation_tolerance, displacement_tolerance,
+              solver_tolerance, solver_options, solver, threads, crossover, active_set, warm_start,
+              constraint_generation, schedule, interior_steps) -> _Settings:
     """The run's fixed choices in the driver's units (lengths in initial largest diameters); ``crossover`` None
     becomes False for HiPO, True otherwise (the faster pairing of each)."""
     n = packing.n
@@ -447,7 +445,8 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation
         n=n, dim=packing.dim, unit=unit, box=box, period=period, walls=walls,
         cutoff0=2.0 if cutoff is None else float(cutoff),
         s_bound=s_bound, regime_thresholds=tuple(regime_thresholds), zero_force=zero_force,
-        inflation_tolerance=float(inflation_tolerance), solver_tolerance=solver_tolerance,
+        inflation_tolerance=inflation_tolerance, displacement_tolerance=displacement_tolerance,
+        solver_tolerance=solver_tolerance,
         solver_options=solver_options, solver=solver, threads=int(threads),
         crossover=bool(solver != "hipo" if crossover is None else crossover), active_set=bool(active_set),
         constraint_generation=bool(constraint_generation), schedule=schedule, interior_steps=bool(interior_steps),
@@ -455,13 +454,13 @@ def _settings(packing, cutoff, s_bound, regime_thresholds, zero_force, inflation
     )
 
 
-def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, inflation_tolerance,
-                displacement_tolerance, overlap_tolerance, fine_tune, warm_start) -> dict[str, Any]:
+def _parameters(cfg: _Settings, initial_sqrt_inflation: float, max_iterations, overlap_tolerance, fine_tune,
+                warm_start) -> dict[str, Any]:
     """The run's parameters as the output's metadata records them and the checkpoint's fingerprint hashes them
     (``warm_start`` as asked for, before the limit in N)."""
     return {
-        "max_iterations": int(max_iterations), "inflation_tolerance": inflation_tolerance,
-        "displacement_tolerance": displacement_tolerance, "s_bound": cfg.s_bound, "cutoff": cfg.cutoff0,
+        "max_iterations": int(max_iterations), "inflation_tolerance": cfg.inflation_tolerance,
+        "displacement_tolerance": cfg.displacement_tolerance, "s_bound": cfg.s_bound, "cutoff": cfg.cutoff0,
         "initial_sqrt_inflation": float(initial_sqrt_inflation), "regime_thresholds": list(cfg.regime_thresholds),
         "zero_force": cfg.zero_force, "solver_tolerance": cfg.solver_tolerance, "overlap_tolerance": overlap_tolerance,
         "fine_tune": bool(fine_tune), "active_set": cfg.active_set, "warm_start": bool(warm_start),
@@ -582,8 +581,8 @@ def _jammed_packing(packing: Packing, positions, diameters, parameters) -> Packi
 # --- the main loop: iterate until converged, each iteration in its steps (docs §1-§2) --------------------------------
 
 
-def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterations: int, inflation_tolerance: float,
-             displacement_tolerance: float, progress: Progress, log: LPLog) -> bool:
+def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterations: int, progress: Progress,
+             log: LPLog) -> bool:
     """Iterate until both tolerances are met (True) or ``max_iterations`` LPs have been solved (False). Each LP's
     history row goes to the LP log at once; the state is saved whenever the checkpoint is due, and on
     SIGTERM/SIGINT, which then stop the run."""
@@ -595,7 +594,7 @@ def _iterate(run: _Run, cfg: _Settings, ckpt: Checkpoint, checkpoint, max_iterat
         vertex = run.last[1].method_name != "interior"  # an interior step's s is no vertex's: never converged on
         if cfg.walls is not None:  # a step deflated by a curved wall's margin is no closer to jamming
             sqrt_inflation = 1.0 + abs(sqrt_inflation - 1.0)
-        if vertex and _converged(sqrt_inflation, max_s, inflation_tolerance, displacement_tolerance):
+        if vertex and _converged(sqrt_inflation, max_s, cfg.inflation_tolerance, cfg.displacement_tolerance):
             return True
         if not told:
             told = creeping(columns["sqrt_inflation_minus_1"], columns["contact_changes"])
@@ -669,6 +668,7 @@ class _Settings:
     regime_thresholds: tuple[float, float]
     zero_force: float
     inflation_tolerance: float  # the convergence test's, on sqrt(Gamma) - 1 (docs §2.1)
+    displacement_tolerance: float  # and on max |s_{i,mu}| of the non-rattlers, units of the largest diameter
     solver_tolerance: float
     solver_options: dict[str, Any] | None
     solver: str
